@@ -1,0 +1,346 @@
+"""Exact kinematic figures of piecewise polynomials (TIMING-SPEC §3), batched.
+
+Everything here works on coefficients (B, S, J, D+1) in local time with
+durations (B, S), and is exact up to floating point: extrema come from the
+end points of each segment and the real roots of the next derivative inside
+it, integrals of |q^(d)| from the roots of q^(d), and the jerk energy from
+the closed-form integral of a squared polynomial. No sampling.
+
+Each segment polynomial p(tau), tau in [0, h], is first normalised to
+P(s) = p(s h), s in [0, 1] (coefficients c_i h^i), which keeps the root
+finding well conditioned whatever the durations.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+from math import comb
+
+import numpy as np
+
+from .limits import QUANTITIES, UNITS, JointLimits, time_scale_factor
+from .splines import PiecewisePolynomial, derivative_coefficients, polyval, powers
+
+_IMAGINARY_TOLERANCE = 1e-7
+_LEADING_FLOOR = 1e-14
+_NEGLIGIBLE = 1e-10  # relative size of coefficients treated as zero when deflating at s = 1
+_DROP_DEGREE = 1e-9  # relative size of a leading coefficient below which the closed forms drop it
+
+
+def _cubic_roots(p: np.ndarray) -> np.ndarray:
+    """Real roots of polynomials of degree <= 3, ``p`` (..., 4) lowest first, in closed form.
+
+    Per element, a leading coefficient below 1e-9 of the largest is dropped
+    (cubic -> quadratic -> linear), which moves the polynomial by at most that
+    much on [0, 1]. Three real roots by the trigonometric method, one by
+    Cardano's formula; each root then takes one Newton step on the full
+    polynomial. Returns (..., 3), NaN where there is no real root.
+    """
+    d, c, b, a = np.moveaxis(p, -1, 0)
+    scale = np.maximum(np.maximum(np.abs(a), np.abs(b)), np.maximum(np.abs(c), np.abs(d)))
+    tiny = _DROP_DEGREE * scale
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        # Cubic: s = t - B/3 gives t^3 + P t + Q.
+        big_b, big_c, big_d = b / a, c / a, d / a
+        pp = big_c - big_b * big_b / 3.0
+        qq = 2.0 * big_b * big_b * big_b / 27.0 - big_b * big_c / 3.0 + big_d
+        shift = -big_b / 3.0
+        pp_cubed = pp * pp * pp
+        three_real = 4.0 * pp_cubed + 27.0 * qq * qq < 0.0
+        radius = 2.0 * np.sqrt(np.where(three_real, -pp / 3.0, 0.0))
+        angle = np.arccos(np.clip(np.where(three_real, 3.0 * qq / (pp * radius), 0.0), -1.0, 1.0)) / 3.0
+        trig = radius[..., None] * np.cos(angle[..., None] - 2.0 * np.pi * np.arange(3) / 3.0)
+        root_disc = np.sqrt(np.maximum(qq * qq / 4.0 + pp_cubed / 27.0, 0.0))
+        single = np.cbrt(-qq / 2.0 + root_disc) + np.cbrt(-qq / 2.0 - root_disc)
+        cardano = np.stack((single, np.full_like(single, np.nan), np.full_like(single, np.nan)), axis=-1)
+        cubic = np.where(three_real[..., None], trig, cardano) + shift[..., None]
+        # Quadratic b s^2 + c s + d, numerically stable form.
+        disc = c * c - 4.0 * b * d
+        q = -0.5 * (c + np.copysign(np.sqrt(np.where(disc >= 0, disc, np.nan)), c))
+        quadratic = np.stack((q / b, d / q, np.full_like(q, np.nan)), axis=-1)
+        linear = np.stack((-d / c, np.full_like(c, np.nan), np.full_like(c, np.nan)), axis=-1)
+        roots = np.where((np.abs(a) > tiny)[..., None], cubic,
+                         np.where((np.abs(b) > tiny)[..., None], quadratic,
+                                  np.where((np.abs(c) > tiny)[..., None], linear, np.nan)))
+        value = ((a[..., None] * roots + b[..., None]) * roots + c[..., None]) * roots + d[..., None]
+        slope = (3.0 * a[..., None] * roots + 2.0 * b[..., None]) * roots + c[..., None]
+        step = value / slope
+        roots = np.where(np.isfinite(step) & (np.abs(step) < 1e-3), roots - step, roots)
+    return roots
+
+
+def _eigen_roots(p: np.ndarray) -> np.ndarray:
+    """Real roots of polynomials ``p`` (..., k+1) of any degree, from companion eigenvalues.
+
+    A leading coefficient below 1e-14 of the largest is raised to that floor
+    (moving P by at most that much on [0, 1]). Returns (..., k), NaN where complex.
+    """
+    degree = p.shape[-1] - 1
+    scale = np.abs(p).max(axis=-1)
+    floor = _LEADING_FLOOR * scale
+    lead = p[..., -1]
+    lead = np.where(np.abs(lead) >= floor, lead, np.where(lead < 0, -floor, floor))
+    lead = np.where(scale > 0, lead, 1.0)
+    companion = np.zeros(p.shape[:-1] + (degree, degree))
+    companion[..., np.arange(1, degree), np.arange(degree - 1)] = 1.0
+    companion[..., :, -1] = -p[..., :-1] / lead[..., None]
+    eigen = np.linalg.eigvals(companion)
+    real = eigen.real
+    return np.where(np.abs(eigen.imag) <= _IMAGINARY_TOLERANCE * (1.0 + np.abs(real)), real, np.nan)
+
+
+def _column_nonzero(p: np.ndarray) -> np.ndarray:
+    """(C, k+1): whether coefficient i of column c is nonzero anywhere in p (B, C, J, k+1).
+
+    Reduces along long contiguous rows; numpy's reduction over short or
+    strided axes costs tens of microseconds per call on these shapes.
+    """
+    batch, columns, joints, width = p.shape
+    rows = p.transpose(1, 3, 0, 2).reshape(columns * width, batch * joints)
+    return np.count_nonzero(rows, axis=1).reshape(columns, width) > 0
+
+
+def _last_axis_extremes(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Min and max over a short last axis, as running elementwise minimum/maximum."""
+    low = values[..., 0].copy()
+    high = low.copy()
+    for i in range(1, values.shape[-1]):
+        np.minimum(low, values[..., i], out=low)
+        np.maximum(high, values[..., i], out=high)
+    return low, high
+
+
+def _in_unit_interval(roots: np.ndarray) -> np.ndarray:
+    inside = (roots >= -1e-12) & (roots <= 1.0 + 1e-12)
+    return np.where(inside, np.clip(roots, 0.0, 1.0), np.nan)
+
+
+@lru_cache(maxsize=None)
+def _binomial_reflection(size: int) -> np.ndarray:
+    """R with (p @ R)[i] the coefficients of p(1 - u) in u: (-1)^i sum_k C(k, i) p_k."""
+    return np.array([[(-1) ** i * comb(k, i) for i in range(size)] for k in range(size)], dtype=float)
+
+
+def column_roots(p: np.ndarray) -> np.ndarray:
+    """Roots in [0, 1] of polynomials p (B, C, J, k+1) in normalised time, column by column.
+
+    Each column (fixed second index) is analysed over the whole batch and all
+    joints: its degree is its highest nonzero power, and a root of multiplicity
+    m at s = 0 (m exactly-zero low coefficients) or at s = 1 (m coefficients
+    of p(1 - u) below 1e-10 of the largest) is divided out, since end points
+    are candidates anyway. The hybrid family's 7th-order end segments, which
+    rest at one end, deflate this way to cubics; everything of degree <= 3
+    then goes through one closed-form solve, anything else through companion
+    eigenvalues.
+
+    Returns:
+        (B, C, J, R) roots in [0, 1], NaN padded, R the most roots any column can have.
+    """
+    batch, columns, joints, width = p.shape
+    nonzero = _column_nonzero(p)
+    has_any = nonzero.any(axis=1)
+    top = np.where(has_any, width - 1 - np.argmax(nonzero[:, ::-1], axis=1), 0)
+    low = np.where(has_any, np.argmax(nonzero, axis=1), 0)
+    side = np.zeros(columns, dtype=int)
+    reflected = None
+    deep = np.flatnonzero(top - low > 3)
+    if deep.size:
+        reflected = p[:, deep] @ _binomial_reflection(width)
+        scale = np.abs(p[:, deep]).max(axis=-1, keepdims=True)
+        negligible = np.all(np.abs(reflected) <= _NEGLIGIBLE * scale, axis=(0, 2))  # (deep, k+1)
+        zeros_at_one = np.argmin(np.concatenate((negligible, np.zeros((deep.size, 1), bool)), axis=1), axis=1)
+        better = zeros_at_one > low[deep]
+        side[deep[better]] = 1
+        low[deep[better]] = zeros_at_one[better]
+    degree = top - low
+    result = np.full((batch, columns, joints, max(int(degree.max(initial=0)), 0)), np.nan)
+    groups = {"linear": [], "cubic": [], "eigen": []}
+    for s, lo, hi in sorted(set(zip(side.tolist(), low.tolist(), top.tolist()))):
+        if hi - lo < 1:
+            continue
+        cols = np.flatnonzero((side == s) & (low == lo) & (top == hi))
+        source = reflected[:, np.searchsorted(deep, cols)] if s else p[:, cols]
+        kind = "linear" if hi - lo == 1 else "cubic" if hi - lo <= 3 else "eigen"
+        groups[kind].append((cols, s, source[..., lo:hi + 1]))
+
+    def store(cols, s, found):
+        result[:, cols, :, :found.shape[-1]] = 1.0 - found if s else found
+
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for cols, s, x in groups["linear"]:
+            store(cols, s, -x[..., :1] / x[..., 1:])
+    if groups["cubic"]:
+        padded = np.concatenate([np.concatenate((x, np.zeros(x.shape[:-1] + (4 - x.shape[-1],))), axis=-1)
+                                 for _, _, x in groups["cubic"]], axis=1)
+        roots = _cubic_roots(padded)
+        offset = 0
+        for cols, s, x in groups["cubic"]:
+            store(cols, s, roots[:, offset:offset + len(cols), :, :x.shape[-1] - 1])
+            offset += len(cols)
+    for cols, s, x in groups["eigen"]:
+        store(cols, s, _eigen_roots(x))
+    return _in_unit_interval(result)
+
+
+def _normalised(coefficients: np.ndarray, durations: np.ndarray) -> np.ndarray:
+    """P(s) = p(s h): coefficients c_i h^i, shape as ``coefficients``."""
+    return coefficients * powers(durations, coefficients.shape[-1])[..., None, :]
+
+
+def _normalised_derivatives(coefficients: np.ndarray, durations: np.ndarray, orders) -> np.ndarray:
+    """P_d(s) = q^(d)(s h) for each order, stacked on the segment axis: (B, len(orders) * S, J, D+1).
+
+    With P(s) = q(s h), P_d = h^(-d) d^d P / ds^d: one normalisation, then
+    derivatives in s, padded with zeros to the full width.
+    """
+    width = coefficients.shape[-1]
+    position = _normalised(coefficients, durations)
+    inverse = 1.0 / durations[..., None, None]
+    parts = []
+    for order in orders:
+        d = derivative_coefficients(position, order)
+        padded = np.zeros(position.shape)
+        padded[..., :d.shape[-1]] = d
+        for _ in range(order):
+            padded *= inverse
+        parts.append(padded)
+    return np.concatenate(parts, axis=1)
+
+
+def segment_ranges(coefficients: np.ndarray, durations: np.ndarray, orders=(0,)):
+    """Exact min and max of q^(d) on every segment, for each order d in ``orders``.
+
+    Candidates are the segment ends and the real roots of q^(d+1) inside.
+    Segments are handled in blocks of equal degree (the hybrid family's cubic
+    interior apart from its 7th-order ends), each at its own width.
+
+    Args:
+        coefficients: (B, S, J, D+1); durations: (B, S) [s].
+
+    Returns:
+        (low, high), each (len(orders), B, S, J) [SI units of each order].
+    """
+    batch, segments, joints, width = coefficients.shape
+    nonzero = _column_nonzero(coefficients)
+    top = np.where(nonzero.any(axis=1), width - 1 - np.argmax(nonzero[:, ::-1], axis=1), 0)
+    low = np.empty((len(orders), batch, segments, joints))
+    high = np.empty_like(low)
+    for degree in np.unique(top):
+        cols = np.flatnonzero(top == degree)
+        block = coefficients[:, cols, :, :max(int(degree), 1) + 1]
+        low[:, :, cols], high[:, :, cols] = _block_ranges(block, durations[:, cols], orders)
+    return low, high
+
+
+def _block_ranges(coefficients: np.ndarray, durations: np.ndarray, orders):
+    batch, segments, joints, width = coefficients.shape
+    p = _normalised_derivatives(coefficients, durations, orders)
+    slope = p[..., 1:] * np.arange(1, width)
+    roots = np.nan_to_num(column_roots(slope), nan=0.0)
+    ends = np.zeros(p.shape[:-1] + (2,))
+    ends[..., 1] = 1.0
+    low, high = _last_axis_extremes(polyval(p, np.concatenate((ends, roots), axis=-1)))
+    shape = (batch, len(orders), segments, joints)
+    return low.reshape(shape).swapaxes(0, 1), high.reshape(shape).swapaxes(0, 1)
+
+
+def max_abs(coefficients: np.ndarray, durations: np.ndarray) -> np.ndarray:
+    """(B, 3, J) exact max |velocity|, |acceleration|, |jerk| over the whole trajectory."""
+    low, high = segment_ranges(coefficients, durations, (1, 2, 3))
+    return np.maximum(-low, high).max(axis=2).swapaxes(0, 1)
+
+
+def position_range(coefficients: np.ndarray, durations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(B, J) exact minimum and maximum position [rad] over the whole trajectory."""
+    low, high = segment_ranges(coefficients, durations, (0,))
+    return low[0].min(axis=1), high[0].max(axis=1)
+
+
+def integral_abs(coefficients: np.ndarray, durations: np.ndarray, order: int) -> np.ndarray:
+    """(B, J) exact integral of |q^(order)(t)| dt over the trajectory.
+
+    On each segment, the sign changes of P(s) are the real roots of P in
+    [0, 1]; with A the antiderivative of P, the integral is
+    h * sum |A(s_{i+1}) - A(s_i)| over the sorted breakpoints 0, roots, 1.
+    """
+    p = _normalised(derivative_coefficients(coefficients, order), durations)
+    antiderivative = np.concatenate((np.zeros(p.shape[:-1] + (1,)), p / np.arange(1, p.shape[-1] + 1)),
+                                    axis=-1)
+    roots = column_roots(p)
+    breaks = np.concatenate((np.zeros(p.shape[:-1] + (1,)), np.nan_to_num(roots, nan=1.0),
+                             np.ones(p.shape[:-1] + (1,))), axis=-1)
+    breaks.sort(axis=-1)
+    per_segment = np.abs(np.diff(polyval(antiderivative, breaks), axis=-1)).sum(axis=-1)
+    return (per_segment * durations[..., None]).sum(axis=1)
+
+
+def jerk_energy(coefficients: np.ndarray, durations: np.ndarray) -> np.ndarray:
+    """(B, J) exact jerk energy, the integral of q'''(t)^2 dt [rad^2/s^5].
+
+    With normalised jerk coefficients J_i = j_i h^i on a segment,
+    integral_0^h (sum j_i tau^i)^2 dtau = h * sum_{i,k} J_i J_k / (i + k + 1).
+    """
+    jerk = _normalised(derivative_coefficients(coefficients, 3), durations)
+    size = jerk.shape[-1]
+    hilbert = 1.0 / (np.arange(size)[:, None] + np.arange(size)[None, :] + 1.0)
+    per_segment = np.einsum("bsji,ik,bsjk->bsj", jerk, hilbert, jerk)
+    return (per_segment * durations[..., None]).sum(axis=1)
+
+
+@dataclass(frozen=True)
+class KinematicFigures:
+    """Exact per-joint figures of one trajectory, in SI units.
+
+    Attributes:
+        max_abs: (3, J) max |velocity|, |acceleration|, |jerk|.
+        mean_abs: (3, J) time-averaged |velocity|, |acceleration|, |jerk| (paper Table VI).
+        position_min, position_max: (J,) position range reached [rad].
+        jerk_energy: (J,) integral of jerk squared [rad^2/s^5].
+        total_time: T [s].
+    """
+
+    max_abs: np.ndarray
+    mean_abs: np.ndarray
+    position_min: np.ndarray
+    position_max: np.ndarray
+    jerk_energy: np.ndarray
+    total_time: float
+
+    def ratios(self, limits: JointLimits) -> np.ndarray:
+        """(3, J) constraint ratios against ``limits``."""
+        return limits.ratios(self.max_abs)
+
+    def violations(self, limits: JointLimits, tolerance: float = 1e-9) -> list[str]:
+        """One line per violated limit (joint, quantity, value, limit); empty when feasible."""
+        lines = []
+        ratios = self.ratios(limits)
+        for d, quantity in enumerate(QUANTITIES):
+            for j in np.flatnonzero(ratios[d] > 1.0 + tolerance):
+                lines.append(f"joint {j + 1} {quantity} {self.max_abs[d, j]:.6g} {UNITS[d + 1]} exceeds "
+                             f"limit {limits.magnitudes[d, j]:.6g}")
+        slack = tolerance * np.maximum(1.0, np.abs(limits.lower))
+        for j in np.flatnonzero(self.position_min < limits.lower - slack):
+            lines.append(f"joint {j + 1} position {self.position_min[j]:.6g} rad below lower limit "
+                         f"{limits.lower[j]:.6g}")
+        slack = tolerance * np.maximum(1.0, np.abs(limits.upper))
+        for j in np.flatnonzero(self.position_max > limits.upper + slack):
+            lines.append(f"joint {j + 1} position {self.position_max[j]:.6g} rad above upper limit "
+                         f"{limits.upper[j]:.6g}")
+        return lines
+
+
+def kinematic_figures(trajectory: PiecewisePolynomial) -> KinematicFigures:
+    """All exact figures of one trajectory."""
+    c = trajectory.coefficients[None]
+    h = trajectory.durations[None]
+    total = trajectory.total_time
+    low, high = position_range(c, h)
+    mean = np.stack([integral_abs(c, h, order)[0] for order in (1, 2, 3)]) / total
+    return KinematicFigures(max_abs(c, h)[0], mean, low[0], high[0], jerk_energy(c, h)[0], total)
+
+
+def batch_scale_factors(coefficients: np.ndarray, durations: np.ndarray, limits: JointLimits):
+    """Constraint ratios (B, 3, J) and the time-scale factors s* (B,) of spec §4."""
+    ratios = limits.ratios(max_abs(coefficients, durations))
+    return ratios, time_scale_factor(ratios)

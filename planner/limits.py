@@ -1,0 +1,112 @@
+"""Per-joint kinematic limits in SI units, any of which may be absent (= unlimited)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import InputError
+
+#: Names of the derivative orders 1..3, as used in ratios, reports and task files.
+QUANTITIES = ("velocity", "acceleration", "jerk")
+#: SI units of position and of the derivative orders 1..3.
+UNITS = ("rad", "rad/s", "rad/s^2", "rad/s^3")
+
+
+def _limit_vector(name: str, value, joints: int, fill: float) -> np.ndarray:
+    if value is None:
+        return np.full(joints, fill)
+    array = np.asarray(value, dtype=float).reshape(-1)
+    if array.shape != (joints,):
+        raise InputError(f"{name} limits need {joints} values, got {array.size}")
+    if np.isnan(array).any():
+        joint = int(np.argmax(np.isnan(array)))
+        raise InputError(f"{name} limit of joint {joint + 1} is NaN")
+    return array
+
+
+@dataclass(frozen=True)
+class JointLimits:
+    """Position range and symmetric magnitude limits per joint.
+
+    Attributes:
+        lower, upper: (J,) position range [rad]; -inf / +inf where absent.
+        velocity: (J,) [rad/s], acceleration: (J,) [rad/s^2], jerk: (J,) [rad/s^3];
+            +inf where absent. Every given magnitude limit is > 0.
+    """
+
+    lower: np.ndarray
+    upper: np.ndarray
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    jerk: np.ndarray
+
+    @classmethod
+    def create(cls, joints: int, *, lower=None, upper=None, velocity=None, acceleration=None,
+               jerk=None) -> "JointLimits":
+        """Limits for ``joints`` joints; ``None`` means absent for every joint."""
+        return cls(_limit_vector("lower position", lower, joints, -np.inf),
+                   _limit_vector("upper position", upper, joints, np.inf),
+                   _limit_vector("velocity", velocity, joints, np.inf),
+                   _limit_vector("acceleration", acceleration, joints, np.inf),
+                   _limit_vector("jerk", jerk, joints, np.inf))
+
+    def __post_init__(self):
+        joints = len(self.lower)
+        for name in ("lower", "upper", *QUANTITIES):
+            object.__setattr__(self, name, _limit_vector(name, getattr(self, name), joints, np.inf))
+        for name in QUANTITIES:
+            values = getattr(self, name)
+            bad = np.flatnonzero(values <= 0)
+            if bad.size:
+                j = int(bad[0])
+                raise InputError(f"{name} limit of joint {j + 1} is {values[j]}; limits must be > 0")
+        bad = np.flatnonzero(self.lower >= self.upper)
+        if bad.size:
+            j = int(bad[0])
+            raise InputError(f"joint {j + 1} position range [{self.lower[j]}, {self.upper[j]}] is empty")
+
+    @property
+    def joint_count(self) -> int:
+        return len(self.lower)
+
+    @property
+    def magnitudes(self) -> np.ndarray:
+        """(3, J) velocity, acceleration and jerk limits [SI], +inf where absent."""
+        return np.stack((self.velocity, self.acceleration, self.jerk))
+
+    @property
+    def has_position_range(self) -> bool:
+        return bool(np.isfinite(self.lower).any() or np.isfinite(self.upper).any())
+
+    def ratios(self, max_abs: np.ndarray) -> np.ndarray:
+        """Constraint ratios r_{j,d} = max|q^(d)| / limit_{j,d}; 0 where the limit is absent.
+
+        Args:
+            max_abs: (..., 3, J) maxima of |velocity|, |acceleration|, |jerk| [SI].
+        """
+        return max_abs / self.magnitudes
+
+    def with_overrides(self, **values) -> "JointLimits":
+        """A copy with the named fields (lower, upper, velocity, acceleration, jerk) replaced."""
+        fields = {name: getattr(self, name) for name in ("lower", "upper", *QUANTITIES)}
+        fields.update({k: v for k, v in values.items() if v is not None})
+        return JointLimits(**fields)
+
+
+def time_scale_factor(ratios: np.ndarray) -> np.ndarray:
+    """Smallest s with s * h feasible (TIMING-SPEC §4): max_j max(r_j1, r_j2^(1/2), r_j3^(1/3)).
+
+    Scaling every duration by s divides velocity by s, acceleration by s^2 and
+    jerk by s^3, so the scaled trajectory meets every magnitude limit and
+    touches at least one.
+
+    Args:
+        ratios: (..., 3, J) constraint ratios.
+
+    Returns:
+        (...,) scale factors (0 when nothing is limited).
+    """
+    roots = np.stack((ratios[..., 0, :], np.sqrt(ratios[..., 1, :]), np.cbrt(ratios[..., 2, :])))
+    return roots.max(axis=(0, -1))

@@ -1,0 +1,369 @@
+"""Piecewise polynomials and the via-point spline families of TIMING-SPEC §2.
+
+Conventions: coefficients in local time ``tau`` in ``[0, h_k]`` of each
+segment, lowest order first, shaped (segments, joints, degree + 1), or
+(batch, segments, joints, degree + 1) for a batch of candidate durations
+(batch, segments). Units SI: [rad], [s].
+
+Families:
+
+* ``cubic``: cubic spline with two virtual knots (Lin, Chang & Luh), S = n + 1.
+* ``hybrid``: ``cubic`` with its first and last segment replaced by the
+  7th-order Hermite polynomials of spec §2.2 (the paper's method), S = n + 1.
+* ``quintic``: interpolating quintic B-spline (Gasparetto & Zanotto), S = n - 1.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from math import factorial
+
+import numpy as np
+from scipy.interpolate import make_interp_spline
+from scipy.linalg import solve_banded
+
+from .errors import InputError
+from .validate import finite_array, positive_durations
+
+
+@dataclass(frozen=True)
+class PiecewisePolynomial:
+    """A joint trajectory: one polynomial per segment and joint, in local time.
+
+    Attributes:
+        durations: (S,) segment durations h_k [s], all > 0.
+        coefficients: (S, J, D+1) coefficients of q(tau) = sum_i c_i tau^i [rad, s].
+        via_knots: indices of the knots (0..S) at which the given via-points are passed.
+    """
+
+    durations: np.ndarray
+    coefficients: np.ndarray
+    via_knots: np.ndarray
+
+    def __post_init__(self):
+        durations = positive_durations("durations", self.durations)
+        coefficients = finite_array("coefficients", self.coefficients, 3)
+        if durations.ndim != 1 or coefficients.shape[0] != durations.shape[0]:
+            raise InputError(
+                f"coefficients shape {coefficients.shape} does not match {durations.shape[-1]} durations")
+        object.__setattr__(self, "durations", durations)
+        object.__setattr__(self, "coefficients", coefficients)
+        object.__setattr__(self, "via_knots", np.asarray(self.via_knots, dtype=int))
+
+    @property
+    def segment_count(self) -> int:
+        return self.durations.shape[0]
+
+    @property
+    def joint_count(self) -> int:
+        return self.coefficients.shape[1]
+
+    @property
+    def degree(self) -> int:
+        return self.coefficients.shape[2] - 1
+
+    @property
+    def total_time(self) -> float:
+        """T = sum of h_k [s]."""
+        return float(self.durations.sum())
+
+    @property
+    def knot_times(self) -> np.ndarray:
+        """(S+1,) times t_k of the segment boundaries [s], t_0 = 0."""
+        return np.concatenate(([0.0], np.cumsum(self.durations)))
+
+    @property
+    def via_times(self) -> np.ndarray:
+        """Times [s] at which each given via-point is passed."""
+        return self.knot_times[self.via_knots]
+
+    def evaluate(self, times, order: int = 0) -> np.ndarray:
+        """The ``order``-th time derivative at ``times`` [s], shaped (len(times), J).
+
+        Times outside [0, T] are clamped to the ends.
+        """
+        times = np.clip(np.atleast_1d(np.asarray(times, dtype=float)), 0.0, self.total_time)
+        knots = self.knot_times
+        segment = np.clip(np.searchsorted(knots, times, side="right") - 1, 0, self.segment_count - 1)
+        tau = times - knots[segment]
+        coefficients = derivative_coefficients(self.coefficients, order)[segment]  # (N, J, k+1)
+        return polyval(coefficients, tau[:, None, None])[..., 0]
+
+    def sample(self, rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
+        """Sample at ``rate_hz`` [Hz] from 0 to T inclusive.
+
+        Returns:
+            times (N,) [s] and values (4, N, J): position [rad], velocity [rad/s],
+            acceleration [rad/s^2] and jerk [rad/s^3].
+        """
+        if not np.isfinite(rate_hz) or rate_hz <= 0:
+            raise InputError(f"sample rate must be > 0 Hz, got {rate_hz}")
+        count = int(np.floor(self.total_time * rate_hz + 1e-9)) + 1
+        times = np.arange(count) / rate_hz
+        if times[-1] < self.total_time - 1e-12:
+            times = np.append(times, self.total_time)
+        return times, np.stack([self.evaluate(times, order) for order in range(4)])
+
+
+def derivative_coefficients(coefficients: np.ndarray, order: int) -> np.ndarray:
+    """Coefficients of the ``order``-th derivative along the last axis (lowest first)."""
+    degree = coefficients.shape[-1] - 1
+    if order == 0:
+        return coefficients
+    if order > degree:
+        return np.zeros(coefficients.shape[:-1] + (1,))
+    factors = np.array([factorial(i) / factorial(i - order) for i in range(order, degree + 1)])
+    return coefficients[..., order:] * factors
+
+
+def powers(x, count: int) -> np.ndarray:
+    """x^0 .. x^(count-1) on a new last axis, by repeated products (numpy's pow is slow)."""
+    x = np.asarray(x, dtype=float)
+    result = np.empty(x.shape + (count,))
+    result[..., 0] = 1.0
+    for i in range(1, count):
+        result[..., i] = result[..., i - 1] * x
+    return result
+
+
+def polyval(coefficients: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Horner evaluation of polynomials ``coefficients`` (..., k+1), lowest first.
+
+    A scalar ``x`` gives (...); an array ``x`` holds points on its last axis,
+    (..., m) broadcast against the leading shape, and gives (..., m).
+    """
+    coefficients = coefficients[..., None, :] if np.ndim(x) else coefficients
+    result = np.zeros(np.broadcast_shapes(coefficients.shape[:-1], np.shape(x)))
+    for i in range(coefficients.shape[-1] - 1, -1, -1):
+        result = result * x + coefficients[..., i]
+    return result
+
+
+# --------------------------------------------------------------------------- families
+
+
+class SplineFamily:
+    """A way to build a piecewise polynomial through n via-points from S durations."""
+
+    name: str = ""
+    degree: int = 0
+    description: str = ""
+
+    def segment_count(self, via_count: int) -> int:
+        """How many durations the family needs for ``via_count`` via-points."""
+        raise NotImplementedError
+
+    def via_knots(self, via_count: int) -> np.ndarray:
+        """Indices of the knots at which the via-points are passed."""
+        raise NotImplementedError
+
+    def batch_coefficients(self, via_points: np.ndarray, durations: np.ndarray) -> np.ndarray:
+        """(B, S, J, D+1) coefficients for durations (B, S); inputs already validated."""
+        raise NotImplementedError
+
+    def check(self, via_points, durations) -> tuple[np.ndarray, np.ndarray]:
+        """Validate via-points (n, J), n >= 2, and durations (S,) or (B, S) of the right count."""
+        via = finite_array("via_points", via_points, 2)
+        if via.shape[0] < 2 or via.shape[1] < 1:
+            raise InputError(f"need at least 2 via-points of at least 1 joint, got shape {via.shape}")
+        count = self.segment_count(via.shape[0])
+        h = positive_durations("durations", durations, count)
+        return via, h
+
+    def build(self, via_points, durations) -> PiecewisePolynomial:
+        """The family's trajectory through ``via_points`` (n, J) [rad] with ``durations`` (S,) [s]."""
+        via, h = self.check(via_points, durations)
+        if h.ndim != 1:
+            raise InputError(f"build takes one duration vector, got shape {h.shape}; use build_batch")
+        coefficients = self.batch_coefficients(via, h[None])[0]
+        return PiecewisePolynomial(h, coefficients, self.via_knots(via.shape[0]))
+
+    def build_batch(self, via_points, durations) -> np.ndarray:
+        """Coefficients (B, S, J, D+1) for a batch of duration vectors (B, S) [s]."""
+        via, h = self.check(via_points, durations)
+        return self.batch_coefficients(via, np.atleast_2d(h))
+
+
+class CubicFamily(SplineFamily):
+    """Cubic spline with virtual knots after the first and before the last via-point (spec §2.1).
+
+    Knots y_0..y_{m-1}, m = n + 2, with y_1 and y_{m-2} free. With knot
+    accelerations M_k (M_0 = M_{m-1} = 0), segment k on [0, h_k] is
+
+        q(tau) = y_k + c_k tau + M_k tau^2 / 2 + (M_{k+1} - M_k) tau^3 / (6 h_k),
+        c_k = (y_{k+1} - y_k) / h_k - h_k (2 M_k + M_{k+1}) / 6,
+
+    and velocity continuity at each interior knot k = 1..m-2 reads
+
+        h_{k-1} M_{k-1} + 2 (h_{k-1} + h_k) M_k + h_k M_{k+1}
+            = 6 [(y_{k+1} - y_k) / h_k - (y_k - y_{k-1}) / h_{k-1}].
+
+    Zero end velocities fix the virtual knots: y_1 = p_0 + h_0^2 M_1 / 6 and
+    y_{m-2} = p_{n-1} + h_{S-1}^2 M_{m-2} / 6. Writing y_k = ybar_k + g_k M_k and
+    substituting keeps the system tridiagonal in M_1..M_{m-2}: O(S) per joint.
+    A batch is solved as one block-diagonal tridiagonal system (LAPACK gtsv).
+    """
+
+    name = "cubic"
+    degree = 3
+    description = "cubic spline, two virtual knots"
+
+    def segment_count(self, via_count: int) -> int:
+        return via_count + 1
+
+    def via_knots(self, via_count: int) -> np.ndarray:
+        return np.concatenate(([0], np.arange(2, via_count), [via_count + 1]))
+
+    def batch_coefficients(self, via_points: np.ndarray, durations: np.ndarray) -> np.ndarray:
+        h = durations
+        batch, segments = h.shape
+        knots = segments + 1
+        joints = via_points.shape[1]
+        # Knot positions ybar (m, J): the virtual knots start at their neighbours' positions.
+        ybar = np.concatenate((via_points[:1], via_points, via_points[-1:]))
+        gain = np.zeros((batch, knots))
+        gain[:, 1] = h[:, 0] * h[:, 0] / 6.0
+        gain[:, -2] = h[:, -1] * h[:, -1] / 6.0
+        h_prev, h_next = h[:, :-1], h[:, 1:]
+        lower = h_prev - 6.0 * gain[:, :-2] / h_prev
+        diag = 2.0 * (h_prev + h_next) + 6.0 * gain[:, 1:-1] * (1.0 / h_prev + 1.0 / h_next)
+        upper = h_next - 6.0 * gain[:, 2:] / h_next
+        slope = np.diff(ybar, axis=0)[None] / h[:, :, None]  # (B, S, J)
+        rhs = 6.0 * np.diff(slope, axis=1)  # (B, m-2, J)
+        unknowns = knots - 2
+        banded = np.zeros((3, batch, unknowns))
+        banded[0, :, 1:] = upper[:, :-1]
+        banded[1] = diag
+        banded[2, :, :-1] = lower[:, 1:]
+        banded = banded.reshape(3, batch * unknowns)
+        moments = solve_banded((1, 1), banded, rhs.reshape(batch * unknowns, joints),
+                               overwrite_ab=True, overwrite_b=True, check_finite=False)
+        m_full = np.zeros((batch, knots, joints))
+        m_full[:, 1:-1] = moments.reshape(batch, unknowns, joints)
+        y = ybar[None] + gain[:, :, None] * m_full
+        hh = h[:, :, None]
+        m0, m1 = m_full[:, :-1], m_full[:, 1:]
+        coefficients = np.empty((batch, segments, joints, 4))
+        coefficients[..., 0] = y[:, :-1]
+        coefficients[..., 1] = np.diff(y, axis=1) / hh - hh * (2.0 * m0 + m1) / 6.0
+        coefficients[..., 2] = m0 / 2.0
+        coefficients[..., 3] = (m1 - m0) / (6.0 * hh)
+        return coefficients
+
+
+# Q^(d)(1) of Q(s) = sum_i b_i s^i is sum_i b_i i! / (i - d)!: the map from the
+# low coefficients b0..b3 and, inverted, the one onto the high ones b4..b7.
+_FALLING = np.array([[factorial(i) / factorial(i - d) if i >= d else 0.0 for i in range(8)]
+                     for d in range(4)])
+_HERMITE7_INVERSE = np.linalg.inv(_FALLING[:, 4:])
+_TAYLOR_LOW = np.array([1.0, 1.0, 2.0, 6.0])
+
+
+def hermite7(start: np.ndarray, end: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """The 7th-order polynomial on [0, h] with given (q, q', q'', q''') at both ends.
+
+    Args:
+        start, end: (..., 4) position [rad], velocity, acceleration, jerk at tau = 0 and tau = h.
+        h: durations [s], broadcastable to start[..., 0].
+
+    Returns:
+        (..., 8) coefficients in tau, lowest first. Solved in normalised time
+        s = tau / h: b_i = c_i h^i, the first four fixed by the start state and
+        b4..b7 from a constant 4x4 inverse applied to the end residuals.
+    """
+    power = powers(h, 8)
+    scaled_start = start * power[..., :4] / _TAYLOR_LOW
+    scaled_end = end * power[..., :4]
+    residual = scaled_end - scaled_start @ _FALLING[:, :4].T
+    high = residual @ _HERMITE7_INVERSE.T
+    return np.concatenate((scaled_start, high), axis=-1) / power
+
+
+class HybridFamily(CubicFamily):
+    """The paper's method (spec §2.2): the ``cubic`` spline with 7th-order end segments.
+
+    Segment 0 becomes the 7th-order polynomial from (p_0, 0, 0, 0) to the cubic's
+    state (q, q', q'', q''') at tau = h_0, and segment S-1 the one from the
+    cubic's state at tau = 0 of that segment to (p_{n-1}, 0, 0, 0). The result is
+    C2 everywhere with zero velocity, acceleration and jerk at both ends.
+
+    Note: the state matched includes the jerk of the cubic's own end segment,
+    so at the virtual knots jerk jumps exactly as the cubic spline's does. The
+    spec's "C3 at the virtual knots" would need the neighbouring segment's
+    jerk instead; its §5 reference numbers come from this construction.
+    """
+
+    name = "hybrid"
+    degree = 7
+    description = "cubic interior, 7th-order end segments"
+
+    def batch_coefficients(self, via_points: np.ndarray, durations: np.ndarray) -> np.ndarray:
+        cubic = super().batch_coefficients(via_points, durations)
+        batch, segments, joints, _ = cubic.shape
+        coefficients = np.zeros((batch, segments, joints, 8))
+        coefficients[..., :4] = cubic
+        h_first = durations[:, :1]
+        h_last = durations[:, -1:]
+        rest = np.zeros((batch, joints, 4))
+        first_start = rest.copy()
+        first_start[..., 0] = via_points[0]
+        last_end = rest.copy()
+        last_end[..., 0] = via_points[-1]
+        first_end = _cubic_state(cubic[:, 0], h_first)
+        last_start = _cubic_state(cubic[:, -1], np.zeros_like(h_last))
+        coefficients[:, 0] = hermite7(first_start, first_end, h_first)
+        coefficients[:, -1] = hermite7(last_start, last_end, h_last)
+        return coefficients
+
+
+def _cubic_state(coefficients: np.ndarray, tau: np.ndarray) -> np.ndarray:
+    """(q, q', q'', q''') of cubics (..., J, 4) at local time ``tau`` (..., 1)."""
+    c0, c1, c2, c3 = np.moveaxis(coefficients, -1, 0)
+    return np.stack((c0 + tau * (c1 + tau * (c2 + tau * c3)),
+                     c1 + tau * (2.0 * c2 + 3.0 * tau * c3),
+                     2.0 * c2 + 6.0 * tau * c3,
+                     6.0 * c3), axis=-1)
+
+
+class QuinticFamily(SplineFamily):
+    """Interpolating quintic B-spline with zero end velocity and acceleration (spec §2.3).
+
+    Knots at the via-points (S = n - 1); built by scipy's ``make_interp_spline``
+    and converted to per-segment power-basis coefficients (the Taylor
+    coefficients q^(i)(t_k) / i! at each segment's left knot). Needs n >= 2; with
+    n = 2 it is the rest-to-rest quintic.
+    """
+
+    name = "quintic"
+    degree = 5
+    description = "interpolating quintic B-spline"
+
+    def segment_count(self, via_count: int) -> int:
+        return via_count - 1
+
+    def via_knots(self, via_count: int) -> np.ndarray:
+        return np.arange(via_count)
+
+    def batch_coefficients(self, via_points: np.ndarray, durations: np.ndarray) -> np.ndarray:
+        batch, segments = durations.shape
+        joints = via_points.shape[1]
+        zero_ends = ([(1, np.zeros(joints)), (2, np.zeros(joints))],) * 2
+        result = np.empty((batch, segments, joints, 6))
+        for b in range(batch):
+            times = np.concatenate(([0.0], np.cumsum(durations[b])))
+            spline = make_interp_spline(times, via_points, k=5, bc_type=zero_ends)
+            # Taylor coefficients at each segment's left knot: c_i = q^(i)(t_k) / i!.
+            result[b] = np.stack([spline(times[:-1], nu=i) / factorial(i) for i in range(6)], axis=-1)
+        return result
+
+
+FAMILIES: dict[str, SplineFamily] = {f.name: f for f in (CubicFamily(), HybridFamily(), QuinticFamily())}
+
+
+def get_family(name: str) -> SplineFamily:
+    """The family called ``name``; an unknown name is an ``InputError`` listing the known ones."""
+    try:
+        return FAMILIES[name]
+    except (KeyError, TypeError):
+        raise InputError(f"unknown spline family {name!r}; known: {', '.join(FAMILIES)}") from None
+

@@ -1,0 +1,39 @@
+"""Input checks shared by every stage: finite arrays of a stated shape."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import InputError
+
+
+def finite_array(name: str, value, ndim: int) -> np.ndarray:
+    """Return ``value`` as a float array of ``ndim`` dimensions, all entries finite.
+
+    Raises:
+        InputError: naming ``name``, the shape found, or the first non-finite entry.
+    """
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{name} must be numeric ({exc})") from None
+    if array.ndim != ndim:
+        raise InputError(f"{name} must have {ndim} dimension(s), got shape {array.shape}")
+    bad = np.argwhere(~np.isfinite(array))
+    if bad.size:
+        index = tuple(int(i) for i in bad[0])
+        raise InputError(f"{name}{list(index)} is {array[index]}, not a finite number")
+    return array
+
+
+def positive_durations(name: str, value, count: int | None = None) -> np.ndarray:
+    """Durations [s] as a (S,) or (B, S) array, finite and > 0, with S == ``count`` if given."""
+    array = np.asarray(value, dtype=float)
+    array = finite_array(name, array, array.ndim if array.ndim in (1, 2) else 1)
+    if count is not None and array.shape[-1] != count:
+        raise InputError(f"{name} must hold {count} segment durations, got {array.shape[-1]}")
+    bad = np.argwhere(array <= 0)
+    if bad.size:
+        index = tuple(int(i) for i in bad[0])
+        raise InputError(f"{name}{list(index)} is {array[index]} s; durations must be > 0")
+    return array

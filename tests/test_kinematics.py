@@ -1,0 +1,139 @@
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from scipy.integrate import quad
+
+from planner import JointLimits, get_family, kinematic_figures, paper, time_scale_factor
+from planner.kinematics import batch_scale_factors, column_roots, max_abs
+
+from conftest import via_and_durations
+
+# TIMING-SPEC §5: hybrid spline, Table II via-points, Table IV durations [deg/s^k].
+SPEC_MAX = np.array([
+    [32.110, 22.713, 33.579, 49.996, 27.922, 20.286],
+    [12.854, 11.525, 17.546, 28.088, 15.536, 8.544],
+    [5.866, 5.482, 8.256, 14.109, 7.564, 3.222],
+])
+SPEC_MEAN_VELOCITY = np.array([8.245, 5.697, 15.237, 13.370, 10.534, 6.182])
+
+
+def test_spec_reference_table(paper_via):
+    figures = kinematic_figures(get_family("hybrid").build(paper_via, paper.DURATIONS_S))
+    np.testing.assert_allclose(np.rad2deg(figures.max_abs), SPEC_MAX, atol=1e-3 / 2 + 1e-9)
+    np.testing.assert_allclose(np.rad2deg(figures.mean_abs[0]), SPEC_MEAN_VELOCITY, atol=1e-3 / 2 + 1e-9)
+
+
+def test_spec_ratios_of_paper_and_all_three_seconds(paper_via, paper_limits):
+    family = get_family("hybrid")
+    paper_ratios = kinematic_figures(family.build(paper_via, paper.DURATIONS_S)).ratios(paper_limits)
+    assert paper_ratios.max() <= 0.40 + 5e-3
+    threes = kinematic_figures(family.build(paper_via, np.full(9, 3.0))).ratios(paper_limits)
+    assert threes.max() == pytest.approx(0.827, abs=5e-4)
+
+
+def dense_extrema(pp, per_segment=20001):
+    """Sampled max |q^(d)| (3, J) and position range with many samples on every segment."""
+    s = np.linspace(0.0, 1.0, per_segment)
+    knots = pp.knot_times
+    times = np.concatenate([knots[k] + s * pp.durations[k] for k in range(pp.segment_count)])
+    values = [pp.evaluate(np.minimum(times, pp.total_time), order) for order in range(4)]
+    return np.stack([np.abs(v).max(axis=0) for v in values[1:]]), values[0].min(axis=0), values[0].max(axis=0)
+
+
+@pytest.mark.parametrize("name", ["cubic", "hybrid", "quintic"])
+@given(data=via_and_durations("cubic", max_points=6))
+def test_exact_extrema_bound_dense_sampling(name, data):
+    via, _ = data
+    family = get_family(name)
+    h = np.random.default_rng(len(via) * 7).uniform(0.3, 4.0, family.segment_count(len(via)))
+    pp = family.build(via, h)
+    figures = kinematic_figures(pp)
+    sampled, low, high = dense_extrema(pp)
+    exact = figures.max_abs
+    scale = exact.max(axis=1, keepdims=True)
+    assert np.all(sampled <= exact + 1e-9 * scale)
+    assert np.all(sampled >= exact - 1e-6 * np.maximum(exact, 1e-3 * scale))
+    assert np.all(low >= figures.position_min - 1e-9) and np.all(high <= figures.position_max + 1e-9)
+    np.testing.assert_allclose(low, figures.position_min, rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(high, figures.position_max, rtol=1e-6, atol=1e-9)
+
+
+@pytest.mark.parametrize("name", ["cubic", "hybrid", "quintic"])
+def test_mean_magnitudes_and_jerk_energy_match_quadrature(name, paper_via):
+    family = get_family(name)
+    h = np.random.default_rng(5).uniform(1.0, 4.0, family.segment_count(len(paper_via)))
+    pp = family.build(paper_via, h)
+    figures = kinematic_figures(pp)
+    knots = pp.knot_times
+    for j in (0, 3):
+        for order in (1, 2, 3):
+            total = sum(quad(lambda t: abs(pp.evaluate([t], order)[0, j]), knots[k], knots[k + 1],
+                             limit=200, epsabs=1e-13, epsrel=1e-12)[0] for k in range(pp.segment_count))
+            assert figures.mean_abs[order - 1, j] == pytest.approx(total / pp.total_time, rel=1e-8)
+        energy = sum(quad(lambda t: pp.evaluate([t], 3)[0, j] ** 2, knots[k], knots[k + 1],
+                          epsabs=1e-13, epsrel=1e-12)[0] for k in range(pp.segment_count))
+        assert figures.jerk_energy[j] == pytest.approx(energy, rel=1e-8)
+
+
+@given(st.floats(0.2, 5.0))
+def test_time_scaling_divides_ratios_by_powers_of_s(scale):
+    via = np.deg2rad(paper.VIA_POINTS_DEG)
+    limits = paper.paper_limits()
+    h = np.random.default_rng(2).uniform(1, 4, 9)
+    base = kinematic_figures(get_family("hybrid").build(via, h)).ratios(limits)
+    scaled = kinematic_figures(get_family("hybrid").build(via, scale * h)).ratios(limits)
+    np.testing.assert_allclose(scaled * scale ** np.array([1, 2, 3])[:, None], base, rtol=1e-8)
+
+
+def test_scale_factor_makes_trajectory_feasible_and_tight(paper_via, paper_limits):
+    family = get_family("hybrid")
+    durations = np.random.default_rng(4).uniform(0.2, 6.0, (10, 9))
+    ratios, factors = batch_scale_factors(family.build_batch(paper_via, durations), durations, paper_limits)
+    assert factors.shape == (10,)
+    for h, s in zip(durations, factors):
+        repaired = kinematic_figures(family.build(paper_via, s * h)).ratios(paper_limits)
+        assert repaired.max() == pytest.approx(1.0, rel=1e-9)
+    np.testing.assert_allclose(time_scale_factor(ratios), factors)
+
+
+def test_absent_limits_give_zero_ratio(paper_via):
+    limits = JointLimits.create(6, velocity=np.ones(6))
+    c = get_family("cubic").build_batch(paper_via, np.ones((1, 9)))
+    ratios = limits.ratios(max_abs(c, np.ones((1, 9))))
+    assert np.all(ratios[0, 1:] == 0) and np.all(ratios[0, 0] > 0)
+
+
+@given(st.integers(1, 6), st.integers(0, 10_000), st.integers(0, 3), st.booleans())
+def test_column_roots_match_numpy(degree, seed, rest_multiplicity, at_one):
+    """Roots in [0, 1], also with a multiple root at an end (the deflation path)."""
+    rng = np.random.default_rng(seed)
+    inside = rng.uniform(0.02, 0.98, rng.integers(0, degree + 1))
+    others = rng.uniform(1.5, 3.0, degree - len(inside))
+    ends = np.full(rest_multiplicity, 1.0 if at_one else 0.0)
+    coefficients = np.polynomial.polynomial.polyfromroots(np.concatenate((inside, others, ends)))
+    found = column_roots((coefficients * rng.uniform(0.5, 2.0))[None, None, None])[0, 0, 0]
+    found = found[~np.isnan(found)]
+    found = found[(found > 1e-6) & (found < 1 - 1e-6)]  # end points are candidates anyway
+    np.testing.assert_allclose(np.sort(found), np.sort(inside), atol=1e-7)
+
+
+def test_violations_name_joint_quantity_value_and_limit(paper_via):
+    limits = JointLimits.create(6, velocity=np.full(6, 0.1), lower=np.full(6, -1.0), upper=np.full(6, 3.0))
+    figures = kinematic_figures(get_family("hybrid").build(paper_via, np.full(9, 3.0)))
+    lines = figures.violations(limits)
+    assert any(line.startswith("joint 1 velocity") and "exceeds limit 0.1" in line for line in lines)
+    assert any("below lower limit -1" in line for line in lines)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"velocity": [1, 0, 1]}, "velocity limit of joint 2 is 0.0"),
+    ({"jerk": [1, 1, -1]}, "jerk limit of joint 3"),
+    ({"acceleration": [1, 1]}, "need 3 values"),
+    ({"velocity": [1, np.nan, 1]}, "joint 2 is NaN"),
+    ({"lower": [0, 0, 0], "upper": [1, -1, 1]}, "joint 2 position range"),
+])
+def test_bad_limits(kwargs, message):
+    from planner import InputError
+    with pytest.raises(InputError, match=message):
+        JointLimits.create(3, **kwargs)

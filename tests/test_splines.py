@@ -1,0 +1,197 @@
+import numpy as np
+import pytest
+from hypothesis import given
+from scipy.interpolate import make_interp_spline
+
+from planner import InputError, PlannerError, get_family
+from planner.splines import PiecewisePolynomial, hermite7
+
+from conftest import via_and_durations
+
+
+def dense_cubic(via: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """Oracle: the 4S x 4S system of TIMING-SPEC §2.1 for one joint, solved densely.
+
+    Unknowns a_k0..a_k3 of q_k(tau) = sum a_ki tau^i on each segment.
+    """
+    n = len(via)
+    segments = n + 1
+    rows, rhs = [], []
+
+    def row(k, order, tau):
+        r = np.zeros(4 * segments)
+        for i in range(order, 4):
+            r[4 * k + i] = np.prod(range(i - order + 1, i + 1)) * tau ** (i - order)
+        return r
+
+    for order, value in ((0, via[0]), (1, 0.0), (2, 0.0)):
+        rows.append(row(0, order, 0.0)); rhs.append(value)
+    for order, value in ((0, via[-1]), (1, 0.0), (2, 0.0)):
+        rows.append(row(segments - 1, order, h[-1])); rhs.append(value)
+    # Given interior knots 2..m-3 are via[1..n-2]: position at the end of segment k-1 and start of k.
+    for i, knot in enumerate(range(2, n)):
+        rows.append(row(knot - 1, 0, h[knot - 1])); rhs.append(via[i + 1])
+        rows.append(row(knot, 0, 0.0)); rhs.append(via[i + 1])
+    # Continuity of position (virtual knots only), velocity, acceleration at every interior knot.
+    for knot in range(1, segments):
+        orders = (0, 1, 2) if knot in (1, segments - 1) else (1, 2)
+        for order in orders:
+            rows.append(row(knot - 1, order, h[knot - 1]) - row(knot, order, 0.0)); rhs.append(0.0)
+    matrix = np.array(rows)
+    assert matrix.shape == (4 * segments, 4 * segments)
+    return np.linalg.solve(matrix, np.array(rhs)).reshape(segments, 4)
+
+
+def dense_hybrid(via: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """Oracle for §2.2: dense cubic, then 8x8 solves in physical time for the end segments."""
+    cubic = dense_cubic(via, h)
+    result = np.zeros((len(h), 8))
+    result[:, :4] = cubic
+
+    def state(c, tau):
+        return [sum(c[i] * tau ** i for i in range(4)), sum(i * c[i] * tau ** (i - 1) for i in range(1, 4)),
+                2 * c[2] + 6 * c[3] * tau, 6 * c[3]]
+
+    def septic(start, end, duration):
+        rows, rhs = [], []
+        for tau, values in ((0.0, start), (duration, end)):
+            for order in range(4):
+                r = [np.prod(range(i - order + 1, i + 1)) * tau ** (i - order) if i >= order else 0.0
+                     for i in range(8)]
+                rows.append(r); rhs.append(values[order])
+        return np.linalg.solve(np.array(rows), np.array(rhs))
+
+    result[0] = septic([via[0], 0, 0, 0], state(cubic[0], h[0]), h[0])
+    result[-1] = septic(state(cubic[-1], 0.0), [via[-1], 0, 0, 0], h[-1])
+    return result
+
+
+def continuity_jumps(pp: PiecewisePolynomial, order: int) -> np.ndarray:
+    """|left - right| of the order-th derivative at every interior knot, (S-1, J)."""
+    from planner.splines import derivative_coefficients, polyval
+    d = derivative_coefficients(pp.coefficients, order)
+    left = polyval(d[:-1], pp.durations[:-1, None, None])[..., 0]
+    right = d[1:, :, 0]
+    return np.abs(left - right)
+
+
+@given(via_and_durations("cubic", max_joints=2))
+def test_cubic_matches_dense_solve(case):
+    via, h = case
+    pp = get_family("cubic").build(via, h)
+    for j in range(via.shape[1]):
+        np.testing.assert_allclose(pp.coefficients[:, j], dense_cubic(via[:, j], h), rtol=1e-7, atol=1e-7)
+
+
+@given(via_and_durations("hybrid", max_joints=2))
+def test_hybrid_matches_dense_solve(case):
+    via, h = case
+    pp = get_family("hybrid").build(via, h)
+    for j in range(via.shape[1]):
+        expected = dense_hybrid(via[:, j], h)
+        scale = np.abs(expected).max(axis=0) + 1.0
+        np.testing.assert_allclose(pp.coefficients[:, j] / scale, expected / scale, atol=1e-7)
+
+
+@given(via_and_durations("quintic"))
+def test_quintic_matches_scipy(case):
+    via, h = case
+    pp = get_family("quintic").build(via, h)
+    spline = make_interp_spline(pp.knot_times, via, k=5,
+                                bc_type=([(1, np.zeros(via.shape[1])), (2, np.zeros(via.shape[1]))],) * 2)
+    times = np.random.default_rng(0).uniform(0, pp.total_time, 50)
+    for order in range(4):
+        np.testing.assert_allclose(pp.evaluate(times, order), spline(times, nu=order), rtol=1e-7, atol=1e-6)
+
+
+CONTINUITY = {"cubic": 2, "hybrid": 2, "quintic": 4}
+END_ZERO_ORDERS = {"cubic": (1, 2), "hybrid": (1, 2, 3), "quintic": (1, 2)}
+
+
+@pytest.mark.parametrize("name", ["cubic", "hybrid", "quintic"])
+@given(data=via_and_durations("cubic"))
+def test_interpolates_continuous_and_rests(name, data):
+    via, _ = data
+    family = get_family(name)
+    h = np.random.default_rng(len(via)).uniform(0.3, 4.0, family.segment_count(len(via)))
+    pp = family.build(via, h)
+    scale = np.abs(via).max() + 1.0
+    np.testing.assert_allclose(pp.evaluate(pp.via_times), via, atol=1e-9 * scale)
+    for order in range(CONTINUITY[name] + 1):
+        assert continuity_jumps(pp, order).max(initial=0) <= 1e-7 * scale * (1 + 1 / h.min() ** order)
+    for order in END_ZERO_ORDERS[name]:
+        assert np.abs(pp.evaluate([0.0, pp.total_time], order)).max() <= 1e-7 * scale / h.min() ** order
+
+
+def test_hybrid_end_segments_take_the_cubic_state_including_jerk(paper_via):
+    """Spec §2.2 step 2 matches the cubic's jerk of segment 0 (and S-1), not of the neighbour.
+
+    The spec's §5 means (8.245, 5.697 deg/s) come from exactly this construction;
+    matching the neighbouring segment's jerk instead (true C3) gives 8.254, 5.708.
+    So jerk still jumps at the virtual knots, by the cubic spline's own jump there.
+    """
+    from planner.paper import DURATIONS_S
+    hybrid = get_family("hybrid").build(paper_via, DURATIONS_S)
+    cubic = get_family("cubic").build(paper_via, DURATIONS_S)
+    t = hybrid.knot_times
+    for time, side in ((t[1], -1e-12), (t[-2], 1e-12)):
+        for order in range(4):
+            np.testing.assert_allclose(hybrid.evaluate([time + side], order),
+                                       cubic.evaluate([time + side], order), atol=1e-6)
+    np.testing.assert_allclose(continuity_jumps(hybrid, 3), continuity_jumps(cubic, 3), atol=1e-9)
+
+
+def test_batch_equals_single_builds(paper_via):
+    rng = np.random.default_rng(3)
+    durations = rng.uniform(0.5, 5, (7, 9))
+    for name in ("cubic", "hybrid"):
+        family = get_family(name)
+        batch = family.build_batch(paper_via, durations)
+        for b in range(len(durations)):
+            np.testing.assert_allclose(batch[b], family.build(paper_via, durations[b]).coefficients)
+
+
+def test_hermite7_meets_both_end_states():
+    rng = np.random.default_rng(1)
+    start, end, h = rng.normal(size=4), rng.normal(size=4), 1.7
+    c = hermite7(start, end, np.array(h))
+    pp = PiecewisePolynomial(np.array([h]), c[None, None], np.array([0, 1]))
+    for order in range(4):
+        assert pp.evaluate([0.0], order)[0, 0] == pytest.approx(start[order], abs=1e-10)
+        assert pp.evaluate([h], order)[0, 0] == pytest.approx(end[order], abs=1e-9)
+
+
+def test_segment_counts_and_via_times(paper_via):
+    assert get_family("cubic").segment_count(8) == 9
+    assert get_family("hybrid").segment_count(8) == 9
+    assert get_family("quintic").segment_count(8) == 7
+    pp = get_family("hybrid").build(paper_via, np.ones(9))
+    np.testing.assert_allclose(pp.via_times, [0, 2, 3, 4, 5, 6, 7, 9])
+
+
+def test_sample_covers_whole_trajectory(paper_via):
+    pp = get_family("hybrid").build(paper_via, np.full(9, 1.005))
+    times, values = pp.sample(100.0)
+    assert times[0] == 0 and times[-1] == pytest.approx(pp.total_time)
+    assert np.all(np.diff(times) > 0) and values.shape == (4, len(times), 6)
+    np.testing.assert_allclose(values[0, -1], paper_via[-1], atol=1e-12)
+
+
+@pytest.mark.parametrize("via, durations, message", [
+    ([[0.0, 1.0]], [1.0], "at least 2 via-points"),
+    ([[0.0], [np.nan]], [1, 1, 1], "not a finite number"),
+    ([[0.0], [1.0]], [1, np.inf, 1], "not a finite number"),
+    ([[0.0], [1.0]], [1, 0.0, 1], "must be > 0"),
+    ([[0.0], [1.0]], [1, -2.0, 1], "must be > 0"),
+    ([[0.0], [1.0]], [1, 1], "must hold 3 segment durations"),
+    ([0.0, 1.0], [1, 1, 1], "2 dimension"),
+    ([["a"], ["b"]], [1, 1, 1], "numeric"),
+])
+def test_bad_input_raises_clear_error(via, durations, message):
+    with pytest.raises(InputError, match=message):
+        get_family("hybrid").build(via, durations)
+
+
+def test_unknown_family():
+    with pytest.raises(PlannerError, match="unknown spline family 'trig'.*cubic, hybrid, quintic"):
+        get_family("trig")
