@@ -14,10 +14,11 @@ $(STAMP): pyproject.toml
 install: $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/python scripts/spec_table.py
+	$(BIN)/planner plan scripts/tasks/puma560_paper_joint.yaml --out out/puma560_paper_joint
 
 test: $(STAMP)
 	$(BIN)/python -m pytest
 
 bench: $(STAMP)
 	$(BIN)/python scripts/bench_splines.py
+	$(BIN)/python scripts/benchmark.py

@@ -1,0 +1,137 @@
+"""The planner end to end: task -> (robot, IK) -> timing optimization -> trajectory -> outputs.
+
+Each stage takes and returns plain objects; this module only wires them.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InfeasibleError
+from .export import (atomic_output_folder, coefficients_document, write_json, write_trajectory_csv)
+from .kinematics import KinematicFigures, kinematic_figures
+from .limits import QUANTITIES, JointLimits
+from .progress import TerminalProgress
+from .report import plot_profiles
+from .splines import PiecewisePolynomial
+from .task import Task, load_task
+from .timing import OptimizationResult, TimingProblem, optimize
+
+_LIMIT_UNITS = ("deg_s", "deg_s2", "deg_s3")
+
+
+@dataclass
+class PlanResult:
+    """Everything a plan produced, in SI units.
+
+    Attributes:
+        task: the validated task.
+        via_points: (n, J) joint via-points [rad].
+        limits: the limits planned against (robot's, with the task's overrides).
+        optimization: the optimizer's result.
+        trajectory: the final piecewise polynomial.
+        figures: its exact kinematic figures.
+        timings_s: wall time of each stage [s].
+    """
+
+    task: Task
+    via_points: np.ndarray
+    limits: JointLimits
+    optimization: OptimizationResult
+    trajectory: PiecewisePolynomial
+    figures: KinematicFigures
+    timings_s: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def joint_names(self) -> list[str]:
+        return [f"joint{j + 1}" for j in range(self.via_points.shape[1])]
+
+    def summary(self) -> dict:
+        """The ``summary.json`` document (degrees for angles, seconds for time)."""
+        ratios = self.figures.ratios(self.limits)
+        result = self.optimization
+        to_deg = np.rad2deg
+        return {
+            "task": self.task.name,
+            "family": self.task.family,
+            "joint_names": self.joint_names,
+            "via_points_deg": to_deg(self.via_points),
+            "via_times_s": self.trajectory.via_times,
+            "durations_s": self.trajectory.durations,
+            "total_time_s": self.trajectory.total_time,
+            "feasible": result.feasible and not self.figures.violations(self.limits),
+            "max_ratio": {q: ratios[d] for d, q in enumerate(QUANTITIES)},
+            "limits": {**{f"{q}_{_LIMIT_UNITS[d]}": to_deg(self.limits.magnitudes[d]) for d, q in enumerate(QUANTITIES)},
+                       "position_deg": {"lower": to_deg(self.limits.lower), "upper": to_deg(self.limits.upper)}},
+            "max_abs": {f"{q}_{_LIMIT_UNITS[d]}": to_deg(self.figures.max_abs[d]) for d, q in enumerate(QUANTITIES)},
+            "mean_abs": {f"{q}_{_LIMIT_UNITS[d]}": to_deg(self.figures.mean_abs[d]) for d, q in enumerate(QUANTITIES)},
+            "position_range_deg": {"min": to_deg(self.figures.position_min), "max": to_deg(self.figures.position_max)},
+            "jerk_energy_rad2_s5": self.figures.jerk_energy,
+            "optimizer": {
+                "algorithm": result.algorithm, "seed": result.seed, "evaluations": result.evaluations,
+                "wall_time_s": result.wall_time_s, "objective": self.task.optimizer["objective"],
+                "objective_value": result.objective, "bounds_s": self.task.optimizer["bounds"],
+                "stop_reason": result.stop_reason, "settings": result.settings,
+                "best_per_iteration": result.history,
+            },
+            "sample_rate_hz": self.task.sample_rate_hz,
+            "timings_s": self.timings_s,
+        }
+
+    def save(self, out_dir) -> Path:
+        """Write summary.json, trajectory.csv, coefficients.json and profiles.png into ``out_dir``.
+
+        All files are written to a temporary folder first and moved in only
+        when every one of them is complete.
+        """
+        out_dir = Path(out_dir)
+        start = time.perf_counter()
+        with atomic_output_folder(out_dir) as staging:
+            write_trajectory_csv(staging / "trajectory.csv", self.trajectory, self.task.sample_rate_hz)
+            write_json(staging / "coefficients.json", coefficients_document(self.trajectory, self.joint_names))
+            plot_profiles(self.trajectory, self.limits, staging / "profiles.png",
+                          title=f"{self.task.name}: {self.task.family}, T = {self.trajectory.total_time:.3f} s",
+                          joint_names=self.joint_names)
+            self.timings_s["outputs"] = time.perf_counter() - start
+            write_json(staging / "summary.json", self.summary())
+        return out_dir
+
+
+def task_limits(task: Task, joints: int) -> JointLimits:
+    """The task's limits for a robot-less joint-space task."""
+    return JointLimits.create(joints, **task.limits)
+
+
+def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
+    """Plan a task (a ``Task`` or a path to a task file) and return the result (nothing written).
+
+    Raises:
+        PlannerError: a bad task, an infeasible problem, or a failed stage.
+    """
+    timings: dict[str, float] = {}
+    start = time.perf_counter()
+    if not isinstance(task, Task):
+        task = load_task(task)
+    progress = progress or TerminalProgress("", quiet=True)
+    via = task.joint_waypoints
+    limits = task_limits(task, via.shape[1])
+    timings["task"] = time.perf_counter() - start
+
+    start = time.perf_counter()
+    settings = task.optimizer
+    problem = TimingProblem(via, task.family, limits, bounds=settings["bounds"], objective=settings["objective"],
+                            weights=settings["weights"])
+    progress.label = f"optimizing ({settings['algorithm']})"
+    result = optimize(problem, settings["algorithm"], seed=settings["seed"], progress=progress,
+                      **settings["settings"])
+    timings["optimization"] = time.perf_counter() - start
+    if not result.feasible:
+        raise InfeasibleError(f"no feasible timing found by {result.algorithm}: largest constraint ratio "
+                              f"{result.max_ratio:.6g} (limit 1)")
+    trajectory = problem.trajectory(result.durations)
+    figures = kinematic_figures(trajectory)
+    return PlanResult(task, via, limits, result, trajectory, figures, timings)

@@ -1,0 +1,70 @@
+"""Tables and profile figures of a planned trajectory, in degrees (the paper's units)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .kinematics import KinematicFigures
+from .limits import QUANTITIES, JointLimits
+from .splines import PiecewisePolynomial
+
+_UNITS_DEG = ("deg", "deg/s", "deg/s^2", "deg/s^3")
+
+
+def markdown_table(header: list[str], rows: list[list]) -> str:
+    """A GitHub Markdown table; floats with 3 decimals."""
+    def cell(value):
+        if isinstance(value, (float, np.floating)):
+            return f"{value:.3f}" if np.isfinite(value) else "-"
+        return str(value)
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(cell(v) for v in row) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def kinematics_rows(figures: KinematicFigures, label: str = "") -> list[list]:
+    """Rows of per-joint max and mean |v|, |a|, |j| [deg-based] with the average over joints."""
+    rows = []
+    for name, table in (("max", figures.max_abs), ("mean", figures.mean_abs)):
+        for d, quantity in enumerate(QUANTITIES):
+            values = np.rad2deg(table[d])
+            rows.append([label, f"{name} |{quantity}| {_UNITS_DEG[d + 1]}", *values, float(values.mean())])
+    return rows
+
+
+def plot_profiles(trajectory: PiecewisePolynomial, limits: JointLimits, path: Path, *, title: str = "",
+                  rate_hz: float = 200.0, joint_names: list[str] | None = None) -> None:
+    """Position, velocity, acceleration and jerk of every joint against time, as PNG.
+
+    Dashed lines in each joint's colour mark its limits; dotted grey lines the
+    via-point times.
+    """
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    times, values = trajectory.sample(rate_hz)
+    names = joint_names or [f"J{j + 1}" for j in range(trajectory.joint_count)]
+    figure, axes = plt.subplots(4, 1, figsize=(11, 12), sharex=True)
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    bounds = [(limits.lower, limits.upper)] + [(-m, m) for m in limits.magnitudes]
+    for k, axis in enumerate(axes):
+        for j in range(trajectory.joint_count):
+            colour = colours[j % len(colours)]
+            axis.plot(times, np.rad2deg(values[k, :, j]), color=colour, label=names[j], linewidth=1.4)
+            for bound in (bounds[k][0][j], bounds[k][1][j]):
+                if np.isfinite(bound):
+                    axis.axhline(np.rad2deg(bound), color=colour, linestyle="--", linewidth=0.7, alpha=0.6)
+        for t in trajectory.via_times:
+            axis.axvline(t, color="0.6", linestyle=":", linewidth=0.8)
+        axis.set_ylabel(f"{('position', *QUANTITIES)[k]} [{_UNITS_DEG[k]}]")
+        axis.grid(alpha=0.3)
+    axes[0].legend(ncol=min(trajectory.joint_count, 7), loc="upper center", bbox_to_anchor=(0.5, 1.25), fontsize=8)
+    axes[-1].set_xlabel("time [s]")
+    if title:
+        figure.suptitle(title)
+    figure.tight_layout()
+    figure.savefig(path, dpi=110)
+    plt.close(figure)

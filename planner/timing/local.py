@@ -1,0 +1,75 @@
+"""Local refinement of durations by SLSQP on the smooth constraint form of spec §4.
+
+Variables: the durations h [s]. Objective: sum h (or K_t sum h + K_j E).
+Constraints, one per limited (joint, order): g = 1 - r^(1/d) >= 0, which is
+homogeneous of degree 1 in a common scale of h; one per finite position
+bound: the exact range reached stays inside it. Jacobians by forward
+differences, all S + 1 points evaluated in one batch.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import minimize
+
+from ..kinematics import jerk_energy, max_abs, position_range
+from .problem import TimingProblem
+from .result import SearchTracker
+
+_STEP = 1e-7
+
+
+class _Model:
+    """Objective and constraints at a point and its forward-difference neighbours, cached."""
+
+    def __init__(self, problem: TimingProblem, tracker: SearchTracker):
+        self.problem = problem
+        self.tracker = tracker
+        limited = np.isfinite(problem.limits.magnitudes)  # (3, J)
+        self.limited = limited
+        self.roots = np.array([1.0, 0.5, 1.0 / 3.0])[:, None]
+        self.lower = np.isfinite(problem.limits.lower)
+        self.upper = np.isfinite(problem.limits.upper)
+        self._key = None
+
+    def _values(self, h: np.ndarray):
+        """Objective (B,) and constraints (B, m) at durations h (B, S)."""
+        p = self.problem
+        coefficients = p.family.batch_coefficients(p.via_points, h)
+        ratios = p.limits.ratios(max_abs(coefficients, h))
+        constraints = [(1.0 - ratios ** self.roots)[:, self.limited]]
+        if self.lower.any() or self.upper.any():
+            low, high = position_range(coefficients, h)
+            constraints.append((low - p.limits.lower)[:, self.lower])
+            constraints.append((p.limits.upper - high)[:, self.upper])
+        objective = h.sum(axis=1)
+        if p.objective_name == "time-jerk":
+            objective = p.weights[0] * objective + p.weights[1] * jerk_energy(coefficients, h).sum(axis=1)
+        self.tracker.evaluations += len(h)
+        return objective, np.concatenate(constraints, axis=1)
+
+    def at(self, x: np.ndarray):
+        key = x.tobytes()
+        if key != self._key:
+            steps = _STEP * np.maximum(x, 1e-3)
+            points = np.vstack((x, x + np.diag(steps)))
+            objective, constraints = self._values(points)
+            self._key = key
+            self.f, self.g = objective[0], constraints[0]
+            self.df = (objective[1:] - objective[0]) / steps
+            self.dg = ((constraints[1:] - constraints[0]) / steps[:, None]).T
+        return self
+
+
+def refine(problem: TimingProblem, start: np.ndarray, tracker: SearchTracker, max_iterations: int = 20) -> None:
+    """Run SLSQP from durations ``start`` (S,) [s] and offer its repaired result to ``tracker``."""
+    model = _Model(problem, tracker)
+    lower = problem.bounds[0] if problem.bounds else 1e-3 * float(start.min())
+    upper = problem.bounds[1] if problem.bounds else None
+    solution = minimize(
+        lambda x: model.at(x).f, start, jac=lambda x: model.at(x).df, method="SLSQP",
+        bounds=[(lower, upper)] * len(start),
+        constraints=[{"type": "ineq", "fun": lambda x: model.at(x).g, "jac": lambda x: model.at(x).dg}],
+        options={"maxiter": max_iterations, "ftol": 1e-12})
+    if np.all(np.isfinite(solution.x)) and np.all(solution.x > 0):
+        tracker.evaluate(problem.to_search_space(solution.x[None]))

@@ -1,0 +1,221 @@
+"""The time-optimal timing problem of TIMING-SPEC §4, evaluated in batches.
+
+Given joint via-points, a spline family and limits, find segment durations h
+minimising ``time`` (f = sum h) or ``time-jerk`` (f = K_t sum h + K_j sum_j
+integral q_j'''^2 dt) subject to every constraint ratio <= 1, the position
+range, and optional bounds h_min <= h_k <= h_max.
+
+The time-scaling lemma (spec §4) turns this into an unconstrained search over
+*shapes*: any candidate x is repaired in closed form to the feasible, tight
+h = s x. For ``time`` the scale is s* (the smallest feasible); for
+``time-jerk`` it is max(s*, s_opt), where s_opt = (5 K_j E / (K_t T))^(1/6)
+minimises K_t s T + K_j s^-5 E along the ray. With bounds the repaired
+durations are clipped to [h_min, h_max] and the scaling repeated a few times;
+what is still infeasible then is penalised.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InfeasibleError, InputError
+from ..kinematics import jerk_energy, max_abs, position_range
+from ..limits import QUANTITIES, UNITS, JointLimits, time_scale_factor
+from ..splines import PiecewisePolynomial, SplineFamily, get_family, powers
+from ..validate import finite_array
+
+OBJECTIVES = ("time", "time-jerk")
+FEASIBILITY_TOLERANCE = 1e-9
+_REPAIR_ROUNDS = 6
+_PENALTY = 1e3
+#: Unbounded problems search shapes in [SHAPE_FLOOR, 1]^S (duration ratios up to 1 / SHAPE_FLOOR).
+SHAPE_FLOOR = 0.05
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """Batched evaluation of repaired candidates.
+
+    Attributes:
+        durations: (B, S) repaired durations [s].
+        objective: (B,) objective value, penalised where infeasible.
+        ratios: (B, 3, J) constraint ratios of the repaired durations.
+        position_excess: (B,) largest position-range violation [rad] (0 when inside).
+        feasible: (B,) all ratios <= 1 (+1e-9), position range held, bounds held.
+    """
+
+    durations: np.ndarray
+    objective: np.ndarray
+    ratios: np.ndarray
+    position_excess: np.ndarray
+    feasible: np.ndarray
+
+
+class TimingProblem:
+    """Via-points, a spline family, limits, optional bounds and an objective.
+
+    Args:
+        via_points: (n, J) joint via-points [rad], n >= 2.
+        family: a ``SplineFamily`` or its name.
+        limits: ``JointLimits`` (SI); at least one magnitude limit or a lower bound is needed.
+        bounds: optional (h_min, h_max) [s] for every segment duration.
+        objective: ``"time"`` or ``"time-jerk"``.
+        weights: (K_t, K_j) of the ``time-jerk`` objective [1/s, s^5/rad^2].
+
+    Raises:
+        InputError: malformed via-points, bounds, objective or weights.
+        InfeasibleError: a via-point outside its joint's range, or a limit
+            violated even with every duration at h_max.
+    """
+
+    def __init__(self, via_points, family: SplineFamily | str, limits: JointLimits, *,
+                 bounds: tuple[float, float] | None = None, objective: str = "time",
+                 weights: tuple[float, float] = (1.0, 1.0)):
+        self.family = get_family(family) if isinstance(family, str) else family
+        self.via_points, _ = self.family.check(via_points, np.ones(self.family.segment_count(len(via_points))))
+        self.limits = limits
+        if limits.joint_count != self.joint_count:
+            raise InputError(f"limits are for {limits.joint_count} joints, via-points have {self.joint_count}")
+        if objective not in OBJECTIVES:
+            raise InputError(f"unknown objective {objective!r}; known: {', '.join(OBJECTIVES)}")
+        self.objective_name = objective
+        weights_array = finite_array("weights", weights, 1)
+        if weights_array.shape != (2,) or np.any(weights_array < 0) or weights_array[0] <= 0:
+            raise InputError(f"weights (K_t, K_j) must be two numbers with K_t > 0, K_j >= 0, got {weights}")
+        self.weights = (float(weights_array[0]), float(weights_array[1]))
+        self.bounds = None if bounds is None else self._check_bounds(bounds)
+        if not np.isfinite(limits.magnitudes).any() and self.bounds is None:
+            raise InputError("no velocity, acceleration or jerk limit and no duration bounds: "
+                             "the minimum time is unbounded below")
+        self._check_via_points_in_range()
+        if self.bounds is not None:
+            self._check_upper_bound_feasible()
+
+    # ------------------------------------------------------------------ set-up checks
+
+    @property
+    def joint_count(self) -> int:
+        return self.via_points.shape[1]
+
+    @property
+    def segment_count(self) -> int:
+        return self.family.segment_count(len(self.via_points))
+
+    def _check_bounds(self, bounds) -> tuple[float, float]:
+        array = finite_array("bounds", bounds, 1)
+        if array.shape != (2,) or not 0 < array[0] <= array[1]:
+            raise InputError(f"bounds must be [h_min, h_max] with 0 < h_min <= h_max, got {list(bounds)}")
+        return float(array[0]), float(array[1])
+
+    def _check_via_points_in_range(self) -> None:
+        for name, outside in (("lower", self.via_points < self.limits.lower),
+                              ("upper", self.via_points > self.limits.upper)):
+            hits = np.argwhere(outside)
+            if hits.size:
+                k, j = (int(i) for i in hits[0])
+                bound = getattr(self.limits, name)[j]
+                raise InfeasibleError(
+                    f"via-point {k + 1} puts joint {j + 1} at {self.via_points[k, j]:.6g} rad, "
+                    f"outside its {name} limit {bound:.6g} rad",
+                    joint=j, quantity="position", value=float(self.via_points[k, j]), limit=float(bound))
+
+    def _check_upper_bound_feasible(self) -> None:
+        h = np.full((1, self.segment_count), self.bounds[1])
+        ratios = self.limits.ratios(max_abs(self.family.batch_coefficients(self.via_points, h), h))[0]
+        if ratios.max() > 1.0 + FEASIBILITY_TOLERANCE:
+            d, j = np.unravel_index(np.argmax(ratios), ratios.shape)
+            value = ratios[d, j] * self.limits.magnitudes[d, j]
+            raise InfeasibleError(
+                f"infeasible even with every duration at h_max = {self.bounds[1]:g} s: joint {j + 1} "
+                f"{QUANTITIES[d]} reaches {value:.6g} {UNITS[d + 1]}, limit {self.limits.magnitudes[d, j]:.6g}",
+                joint=int(j), quantity=QUANTITIES[d], value=float(value),
+                limit=float(self.limits.magnitudes[d, j]))
+
+    # ------------------------------------------------------------------ search space
+
+    def search_box(self) -> tuple[np.ndarray, np.ndarray]:
+        """(lower, upper) corners of the box the optimizers search, each (S,).
+
+        With bounds: the bounds [s]. Without: shapes in [SHAPE_FLOOR, 1], which
+        the repair scales to durations.
+        """
+        lower, upper = self.bounds if self.bounds is not None else (SHAPE_FLOOR, 1.0)
+        return np.full(self.segment_count, lower), np.full(self.segment_count, upper)
+
+    def to_search_space(self, durations: np.ndarray) -> np.ndarray:
+        """Map repaired durations back into the search box (scale to max 1 when unbounded)."""
+        if self.bounds is not None:
+            return durations
+        return np.clip(durations / durations.max(axis=-1, keepdims=True), SHAPE_FLOOR, 1.0)
+
+    # ------------------------------------------------------------------ evaluation
+
+    def _figures(self, durations: np.ndarray):
+        coefficients = self.family.batch_coefficients(self.via_points, durations)
+        ratios = self.limits.ratios(max_abs(coefficients, durations))
+        return coefficients, ratios
+
+    def _position_excess(self, coefficients: np.ndarray, durations: np.ndarray) -> np.ndarray:
+        if not self.limits.has_position_range:
+            return np.zeros(len(durations))
+        low, high = position_range(coefficients, durations)
+        excess = np.maximum(self.limits.lower - low, high - self.limits.upper)
+        return np.maximum(excess.max(axis=1), 0.0)
+
+    def _energy(self, coefficients: np.ndarray, durations: np.ndarray) -> np.ndarray:
+        """(B,) total jerk energy when the objective uses it, else zeros."""
+        if self.objective_name == "time" or self.weights[1] == 0:
+            return np.zeros(len(durations))
+        return jerk_energy(coefficients, durations).sum(axis=1)
+
+    def evaluate(self, candidates) -> Evaluation:
+        """Repair a batch of candidates (B, S) from the search box and evaluate them.
+
+        Without bounds, one spline build per candidate: by the lemma the
+        scaled trajectory's ratios are r_d / s^d, its jerk energy E / s^5 and
+        its positions unchanged.
+        """
+        x = np.atleast_2d(np.asarray(candidates, dtype=float))
+        coefficients, ratios = self._figures(x)
+        energy = self._energy(coefficients, x)
+        scale = time_scale_factor(ratios)
+        if self.objective_name == "time-jerk" and self.weights[1] > 0:
+            ray_optimum = np.cbrt(np.sqrt(5.0 * self.weights[1] * energy / (self.weights[0] * x.sum(axis=1))))
+            scale = np.maximum(scale, ray_optimum)
+        scale = np.where(scale > 0, scale, 1.0)
+        h = x * scale[:, None]
+        if self.bounds is None:
+            power = powers(scale, 6)
+            return self._score(h, ratios / power[:, 1:4, None], self._position_excess(coefficients, x),
+                               energy / power[:, 5])
+        for _ in range(_REPAIR_ROUNDS):
+            h = np.clip(h, *self.bounds)
+            coefficients, ratios = self._figures(h)
+            excess = time_scale_factor(ratios)
+            if np.all(excess <= 1.0 + FEASIBILITY_TOLERANCE):
+                break
+            h = h * np.maximum(excess, 1.0)[:, None]
+        return self._score(h, ratios, self._position_excess(coefficients, h), self._energy(coefficients, h))
+
+    def _score(self, h, ratios, position_excess, energy) -> Evaluation:
+        worst = time_scale_factor(ratios)
+        total = h.sum(axis=1)
+        value = total if self.objective_name == "time" else self.weights[0] * total + self.weights[1] * energy
+        feasible = (worst <= 1.0 + FEASIBILITY_TOLERANCE) & (position_excess <= FEASIBILITY_TOLERANCE)
+        if self.bounds is not None:
+            feasible &= np.all((h >= self.bounds[0] * (1 - 1e-12)) & (h <= self.bounds[1] * (1 + 1e-12)), axis=1)
+        penalty = _PENALTY * (np.maximum(worst - 1.0, 0.0) + position_excess)
+        return Evaluation(h, np.where(feasible, value, value + penalty * (1.0 + total)), ratios,
+                          position_excess, feasible)
+
+    def evaluate_durations(self, durations) -> Evaluation:
+        """Evaluate durations (B, S) [s] exactly as given, without repair."""
+        h = np.atleast_2d(np.asarray(durations, dtype=float))
+        coefficients, ratios = self._figures(h)
+        return self._score(h, ratios, self._position_excess(coefficients, h), self._energy(coefficients, h))
+
+    def trajectory(self, durations) -> PiecewisePolynomial:
+        """The family's trajectory for one duration vector (S,) [s]."""
+        return self.family.build(self.via_points, durations)

@@ -1,0 +1,92 @@
+"""What an optimizer returns, and the bookkeeping every optimizer shares."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from .problem import Evaluation, TimingProblem
+
+#: progress(done, total, best_objective) -> None, called once per iteration.
+Progress = Callable[[int, int, float], None]
+
+
+@dataclass(frozen=True)
+class OptimizationResult:
+    """Outcome of one optimizer run on a ``TimingProblem``.
+
+    Attributes:
+        algorithm: optimizer name (``cuckoo``, ``cuckoo-paper``, ``pso``, ``de``, ``slsqp``).
+        durations: (S,) best segment durations [s].
+        total_time: sum of the durations [s].
+        objective: objective value of the best durations.
+        ratios: (3, J) exact constraint ratios of the best durations.
+        feasible: every limit and bound holds (exact check, 1e-9 relative tolerance).
+        evaluations: candidate evaluations spent.
+        wall_time_s: wall-clock time of the run [s].
+        history: best objective after each iteration (convergence history).
+        stop_reason: why the run ended.
+        seed: the seed of its random generator (None when deterministic).
+        settings: the algorithm's settings.
+    """
+
+    algorithm: str
+    durations: np.ndarray
+    total_time: float
+    objective: float
+    ratios: np.ndarray
+    feasible: bool
+    evaluations: int
+    wall_time_s: float
+    history: list[float]
+    stop_reason: str
+    seed: int | None
+    settings: dict = field(default_factory=dict)
+
+    @property
+    def max_ratio(self) -> float:
+        return float(self.ratios.max())
+
+
+class SearchTracker:
+    """Counts evaluations, keeps the best candidate seen and the per-iteration history."""
+
+    def __init__(self, problem: TimingProblem, progress: Progress | None = None, total_iterations: int = 0):
+        self.problem = problem
+        self.evaluations = 0
+        self.best_durations: np.ndarray | None = None
+        self.best_objective = np.inf
+        self.history: list[float] = []
+        self._progress = progress
+        self._total = total_iterations
+        self._start = time.perf_counter()
+
+    def evaluate(self, candidates: np.ndarray, repair: bool = True) -> Evaluation:
+        """Evaluate a batch (repaired from the search box, or as durations) and track the best."""
+        evaluation = self.problem.evaluate(candidates) if repair else self.problem.evaluate_durations(candidates)
+        self.evaluations += len(evaluation.objective)
+        self.offer(evaluation)
+        return evaluation
+
+    def offer(self, evaluation: Evaluation) -> None:
+        i = int(np.argmin(evaluation.objective))
+        if evaluation.objective[i] < self.best_objective:
+            self.best_objective = float(evaluation.objective[i])
+            self.best_durations = evaluation.durations[i].copy()
+
+    def end_iteration(self) -> None:
+        self.history.append(self.best_objective)
+        if self._progress is not None:
+            self._progress(len(self.history), self._total, self.best_objective)
+
+    def result(self, algorithm: str, stop_reason: str, seed: int | None, settings: dict) -> OptimizationResult:
+        """The result for the best candidate, re-checked exactly as durations (no repair)."""
+        final = self.problem.evaluate_durations(self.best_durations)
+        return OptimizationResult(
+            algorithm=algorithm, durations=final.durations[0], total_time=float(final.durations[0].sum()),
+            objective=float(final.objective[0]), ratios=final.ratios[0], feasible=bool(final.feasible[0]),
+            evaluations=self.evaluations, wall_time_s=time.perf_counter() - self._start,
+            history=list(self.history), stop_reason=stop_reason, seed=seed, settings=settings)

@@ -1,0 +1,91 @@
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from planner import paper
+from planner.cli import main
+from planner.export import read_trajectory_csv
+
+ROOT = Path(__file__).resolve().parents[1]
+PAPER_JOINT = ROOT / "scripts" / "tasks" / "puma560_paper_joint.yaml"
+
+
+def small_task(tmp_path, **optimizer) -> Path:
+    data = yaml.safe_load(PAPER_JOINT.read_text())
+    data["optimizer"] = {"algorithm": "cuckoo", "iterations": 5, "seed": 0, **optimizer}
+    path = tmp_path / "task.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def test_plan_writes_consistent_outputs(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["plan", str(small_task(tmp_path, bounds_s=[3, 5])), "--out", str(out)]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["coefficients.json", "profiles.png", "summary.json",
+                                                     "trajectory.csv"]
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["total_time_s"] == pytest.approx(27.0) and summary["feasible"] is True
+    assert summary["optimizer"]["algorithm"] == "cuckoo" and summary["optimizer"]["evaluations"] > 0
+    assert len(summary["max_ratio"]["jerk"]) == 6 and max(summary["max_ratio"]["acceleration"]) == pytest.approx(0.827, abs=1e-3)
+    times, values = read_trajectory_csv(out / "trajectory.csv")
+    assert times[-1] == pytest.approx(27.0) and np.allclose(np.diff(times)[:-1], 0.01)
+    # The samples pass through the via-points at the via times and respect the summary's maxima.
+    for via, t in zip(paper.VIA_POINTS_DEG, summary["via_times_s"]):
+        row = int(round(t * 100))
+        np.testing.assert_allclose(np.rad2deg(values[0, row]), via, atol=1e-6)
+    for d, key in enumerate(("velocity_deg_s", "acceleration_deg_s2", "jerk_deg_s3")):
+        assert np.all(np.rad2deg(np.abs(values[d + 1])).max(axis=0) <= np.array(summary["max_abs"][key]) + 1e-6)
+    coefficients = json.loads((out / "coefficients.json").read_text())
+    assert np.array(coefficients["coefficients"]).shape == (9, 6, 8)
+    assert "total time 27.0000 s" in capsys.readouterr().out
+
+
+def test_bad_task_exits_2_with_one_line_and_no_outputs(tmp_path, capsys):
+    data = yaml.safe_load(PAPER_JOINT.read_text())
+    data["limits"]["velocity_deg_s"][1] = -5
+    task = tmp_path / "bad.yaml"
+    task.write_text(yaml.safe_dump(data))
+    out = tmp_path / "out"
+    assert main(["plan", str(task), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "limits.velocity_deg_s[1]: must be > 0, got -5" in err
+    assert not out.exists() and list(tmp_path.iterdir()) == [task]
+
+
+def test_infeasible_task_exits_2_and_keeps_existing_outputs(tmp_path, capsys):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "summary.json").write_text("previous")
+    task = small_task(tmp_path, bounds_s=[0.1, 0.5])
+    assert main(["plan", str(task), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: infeasible even with every duration at h_max = 0.5 s: joint")
+    assert (out / "summary.json").read_text() == "previous" and [p.name for p in out.iterdir()] == ["summary.json"]
+
+
+def test_failure_while_writing_leaves_nothing(tmp_path, monkeypatch):
+    import planner.pipeline as pipeline
+
+    def broken_plot(*args, **kwargs):
+        raise RuntimeError("disk full")
+    monkeypatch.setattr(pipeline, "plot_profiles", broken_plot)
+    out = tmp_path / "out"
+    assert main(["plan", str(small_task(tmp_path, bounds_s=[3, 5])), "--out", str(out)]) == 1
+    assert not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == ["task.yaml"]
+
+
+def test_reproduce_quick_writes_tables_and_figure(tmp_path):
+    out = tmp_path / "repro"
+    assert main(["reproduce", "--quick", "--quiet", "--out", str(out)]) == 0
+    text = (out / "reproduction.md").read_text()
+    assert "| [3, 5] s | hybrid | CS (ours: repair + SLSQP) | 27.0000 |" in text
+    assert "| [3, 5] s | hybrid | CS, the paper's Table IV | 38.3114 | 0.4013 |" in text
+    assert "| max |velocity|, paper reports | 16.920 |" in text
+    data = json.loads((out / "reproduction.json").read_text())
+    unbounded = [r for r in data["runs"] if r["family"] == "hybrid" and r["bounds_s"] is None]
+    assert unbounded and all(r["feasible"] for r in unbounded)
+    assert min(r["total_time_s"] for r in unbounded) < 17.5
+    assert (out / "figure4.png").stat().st_size > 10_000

@@ -1,0 +1,148 @@
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from planner import InfeasibleError, InputError, JointLimits, get_family, kinematic_figures, paper
+from planner.timing import OPTIMIZERS, TimingProblem, cuckoo_search, optimize
+
+
+@pytest.fixture(scope="module")
+def paper_problem():
+    return TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", paper.paper_limits())
+
+
+@pytest.fixture(scope="module")
+def bounded_problem():
+    return TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", paper.paper_limits(), bounds=paper.BOUNDS_S)
+
+
+@given(st.floats(0.1, 3.0), st.floats(0.1, 5.0), st.floats(0.1, 5.0), st.floats(0.1, 5.0))
+def test_single_quintic_reaches_analytic_optimum(distance, velocity, acceleration, jerk):
+    """Rest-to-rest quintic: max|v| = 15 D / 8h, max|a| = 10 D / (sqrt(3) h^2), max|j| = 60 D / h^3."""
+    limits = JointLimits.create(1, velocity=[velocity], acceleration=[acceleration], jerk=[jerk])
+    problem = TimingProblem([[0.0], [distance]], "quintic", limits)
+    expected = max(15 * distance / (8 * velocity), np.sqrt(10 * distance / (np.sqrt(3) * acceleration)),
+                   np.cbrt(60 * distance / jerk))
+    result = cuckoo_search(problem, nests=4, iterations=2, polish=False)
+    assert result.total_time == pytest.approx(expected, rel=1e-9)
+    assert result.feasible and result.max_ratio == pytest.approx(1.0, abs=1e-9)
+
+
+def test_time_jerk_objective_reaches_analytic_optimum():
+    """Quintic, no limits: f(h) = K_t h + K_j 720 D^2 / h^5, minimal at h = (3600 K_j D^2 / K_t)^(1/6)."""
+    distance, k_t, k_j = 0.8, 2.0, 0.5
+    problem = TimingProblem([[0.0], [distance]], "quintic", JointLimits.create(1), bounds=(0.1, 100.0),
+                            objective="time-jerk", weights=(k_t, k_j))
+    result = cuckoo_search(problem, nests=6, iterations=20, polish=False)
+    expected = (3600 * k_j * distance ** 2 / k_t) ** (1 / 6)
+    assert result.total_time == pytest.approx(expected, rel=1e-6)
+    assert result.objective == pytest.approx(k_t * expected + k_j * 720 * distance ** 2 / expected ** 5, rel=1e-9)
+
+
+@pytest.mark.parametrize("algorithm", ["cuckoo", "cuckoo-paper", "default"])
+def test_paper_bounds_give_27_seconds(bounded_problem, algorithm):
+    result = optimize(bounded_problem, algorithm, seed=3)
+    assert result.total_time == pytest.approx(27.0, abs=1e-9)
+    np.testing.assert_allclose(result.durations, 3.0)
+    assert result.feasible and result.max_ratio == pytest.approx(0.827, abs=5e-4)
+
+
+def test_unbounded_default_is_feasible_and_below_17_5(paper_problem):
+    result = optimize(paper_problem, seed=0)
+    assert result.feasible and result.total_time < 17.5
+    assert result.max_ratio == pytest.approx(1.0, abs=1e-6)
+
+
+def test_result_passes_dense_sampling_at_1khz(paper_problem):
+    result = optimize(paper_problem, seed=1)
+    trajectory = paper_problem.trajectory(result.durations)
+    times, values = trajectory.sample(1000.0)
+    limits = paper_problem.limits.magnitudes
+    for order in (1, 2, 3):
+        assert np.all(np.abs(values[order]).max(axis=0) <= limits[order - 1] * (1 + 1e-9))
+
+
+def test_same_seed_same_result(paper_problem):
+    first = cuckoo_search(paper_problem, iterations=5, polish=False, seed=11)
+    second = cuckoo_search(paper_problem, iterations=5, polish=False, seed=11)
+    other = cuckoo_search(paper_problem, iterations=5, polish=False, seed=12)
+    np.testing.assert_array_equal(first.durations, second.durations)
+    assert first.history == second.history
+    assert not np.array_equal(first.durations, other.durations)
+
+
+def test_bounds_respected_and_history_monotone():
+    problem = TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", paper.paper_limits(), bounds=(2.5, 3.5))
+    result = cuckoo_search(problem, iterations=20, seed=0)
+    assert np.all(result.durations >= 2.5 - 1e-12) and np.all(result.durations <= 3.5 + 1e-12)
+    assert result.feasible and len(result.history) == 20
+    assert np.all(np.diff(result.history) <= 0)
+
+
+@pytest.mark.parametrize("algorithm", sorted(set(OPTIMIZERS) - {"cuckoo-paper"}))
+def test_every_optimizer_returns_a_feasible_trajectory(paper_problem, algorithm):
+    budgets = {"cuckoo": {"iterations": 10}, "pso": {"iterations": 10}, "de": {"evaluations": 2000},
+               "slsqp": {"starts": 2, "iterations": 20}, "default": {}}
+    result = optimize(paper_problem, algorithm, seed=0, **budgets[algorithm])
+    assert result.feasible and result.evaluations > 0 and result.wall_time_s > 0
+    figures = kinematic_figures(paper_problem.trajectory(result.durations))
+    assert figures.violations(paper_problem.limits) == []
+    assert result.total_time < 20.0
+
+
+def test_position_limits_are_enforced():
+    via = np.deg2rad(paper.VIA_POINTS_DEG)
+    margin = np.deg2rad(5.0)
+    limits = paper.paper_limits().with_overrides(lower=via.min(axis=0) - margin, upper=via.max(axis=0) + margin)
+    unconstrained = optimize(TimingProblem(via, "hybrid", paper.paper_limits()), seed=0)
+    overshoot = kinematic_figures(get_family("hybrid").build(via, unconstrained.durations)).violations(limits)
+    assert overshoot, "the unconstrained optimum should leave this range, else the test proves nothing"
+    problem = TimingProblem(via, "hybrid", limits)
+    result = optimize(problem, seed=0)
+    figures = kinematic_figures(problem.trajectory(result.durations))
+    assert result.feasible and figures.violations(limits) == []
+
+
+def test_via_point_outside_range_is_infeasible():
+    limits = paper.paper_limits().with_overrides(upper=np.deg2rad([180, 180, 190, 180, 180, 180]))
+    with pytest.raises(InfeasibleError, match="via-point 3 puts joint 3 at 3.49066 rad, outside its upper limit"):
+        TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", limits)
+
+
+def test_upper_bound_too_small_is_infeasible():
+    with pytest.raises(InfeasibleError, match=r"h_max = 0.5 s: joint \d \w+ reaches .* limit") as info:
+        TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", paper.paper_limits(), bounds=(0.1, 0.5))
+    assert info.value.quantity in ("velocity", "acceleration", "jerk") and info.value.value > info.value.limit
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"bounds": (5, 3)}, "0 < h_min <= h_max"),
+    ({"bounds": (0, 3)}, "0 < h_min <= h_max"),
+    ({"objective": "energy"}, "unknown objective 'energy'"),
+    ({"weights": (0, 1)}, "K_t > 0"),
+])
+def test_bad_problem_settings(kwargs, message):
+    with pytest.raises(InputError, match=message):
+        TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", paper.paper_limits(), **kwargs)
+
+
+def test_no_limits_and_no_bounds_is_an_error():
+    with pytest.raises(InputError, match="unbounded below"):
+        TimingProblem([[0.0], [1.0]], "cubic", JointLimits.create(1))
+
+
+def test_bad_optimizer_requests(paper_problem):
+    with pytest.raises(InputError, match="unknown optimizer 'ga'"):
+        optimize(paper_problem, "ga")
+    with pytest.raises(InputError, match="bad settings for optimizer 'pso'"):
+        optimize(paper_problem, "pso", nests=3)
+    with pytest.raises(InputError, match="needs duration bounds"):
+        optimize(paper_problem, "cuckoo-paper")
+    with pytest.raises(InputError, match="nests >= 2"):
+        optimize(paper_problem, "cuckoo", nests=1)
+
+
+def test_wrong_joint_count_in_limits():
+    with pytest.raises(InputError, match="limits are for 2 joints, via-points have 6"):
+        TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", JointLimits.create(2, velocity=[1, 1]))
