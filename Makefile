@@ -14,7 +14,7 @@ $(STAMP): pyproject.toml
 install: $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/planner plan scripts/tasks/puma560_paper_joint.yaml --out out/puma560_paper_joint
+	$(BIN)/planner plan scripts/tasks/puma560_paper_cartesian.yaml --out out/puma560_paper_cartesian
 
 test: $(STAMP)
 	$(BIN)/python -m pytest
@@ -22,3 +22,4 @@ test: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python scripts/bench_splines.py
 	$(BIN)/python scripts/benchmark.py
+	$(BIN)/python scripts/bench_ik.py

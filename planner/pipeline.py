@@ -11,12 +11,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InfeasibleError
+from .errors import InfeasibleError, RobotError, TaskError
+from .ik import IKSolution, pose_from_position_quaternion, solve_waypoints
 from .export import (atomic_output_folder, coefficients_document, write_json, write_trajectory_csv)
 from .kinematics import KinematicFigures, kinematic_figures
 from .limits import QUANTITIES, JointLimits
 from .progress import TerminalProgress
 from .report import plot_profiles
+from .robot import Robot, load_robot
 from .splines import PiecewisePolynomial
 from .task import Task, load_task
 from .timing import OptimizationResult, TimingProblem, optimize
@@ -36,6 +38,8 @@ class PlanResult:
         trajectory: the final piecewise polynomial.
         figures: its exact kinematic figures.
         timings_s: wall time of each stage [s].
+        robot: the robot, for robot tasks.
+        ik: one IK solution per Cartesian waypoint (residuals and joint-space jumps).
     """
 
     task: Task
@@ -45,9 +49,13 @@ class PlanResult:
     trajectory: PiecewisePolynomial
     figures: KinematicFigures
     timings_s: dict[str, float] = field(default_factory=dict)
+    robot: Robot | None = None
+    ik: list[IKSolution] | None = None
 
     @property
     def joint_names(self) -> list[str]:
+        if self.robot is not None:
+            return self.robot.joint_names
         return [f"joint{j + 1}" for j in range(self.via_points.shape[1])]
 
     def summary(self) -> dict:
@@ -80,7 +88,19 @@ class PlanResult:
             },
             "sample_rate_hz": self.task.sample_rate_hz,
             "timings_s": self.timings_s,
+            **self._robot_summary(),
         }
+
+    def _robot_summary(self) -> dict:
+        if self.robot is None:
+            return {}
+        summary = {"robot": {"name": self.robot.name, "urdf": str(self.robot.urdf_path),
+                             "tool_frame": self.robot.tool_frame}}
+        if self.ik is not None:
+            summary["ik"] = [{"waypoint": i, "position_error_m": s.position_error,
+                              "orientation_error_rad": s.orientation_error, "attempts": s.attempts,
+                              "joint_jump_deg": np.rad2deg(s.jump)} for i, s in enumerate(self.ik)]
+        return summary
 
     def save(self, out_dir) -> Path:
         """Write summary.json, trajectory.csv, coefficients.json and profiles.png into ``out_dir``.
@@ -101,25 +121,50 @@ class PlanResult:
         return out_dir
 
 
-def task_limits(task: Task, joints: int) -> JointLimits:
-    """The task's limits for a robot-less joint-space task."""
-    return JointLimits.create(joints, **task.limits)
+def robot_limits(robot: Robot, task: Task) -> JointLimits:
+    """The robot's limits with the task's overrides; acceleration and jerk limits must exist."""
+    for key, values in task.limits.items():
+        if len(values) != robot.dof:
+            raise TaskError(f"limits ({key})", f"must have {robot.dof} values for robot {robot.name!r}, got {len(values)}")
+    limits = robot.limits.with_overrides(**task.limits)
+    for quantity, yaml_key in (("acceleration", "acceleration_deg_s2"), ("jerk", "jerk_deg_s3")):
+        missing = np.flatnonzero(~np.isfinite(getattr(limits, quantity)))
+        if missing.size:
+            raise RobotError(f"robot {robot.name!r} has no {quantity} limit for joint {missing[0] + 1} "
+                             f"({robot.joint_names[missing[0]]}); give limits.{yaml_key} in the task")
+    return limits
 
 
 def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
     """Plan a task (a ``Task`` or a path to a task file) and return the result (nothing written).
 
     Raises:
-        PlannerError: a bad task, an infeasible problem, or a failed stage.
+        PlannerError: a bad task, an unknown robot or frame, an unreachable pose,
+            an infeasible problem.
     """
     timings: dict[str, float] = {}
     start = time.perf_counter()
     if not isinstance(task, Task):
         task = load_task(task)
     progress = progress or TerminalProgress("", quiet=True)
-    via = task.joint_waypoints
-    limits = task_limits(task, via.shape[1])
-    timings["task"] = time.perf_counter() - start
+    robot, ik = None, None
+    if task.robot is not None:
+        robot = load_robot(task.robot.urdf, task.robot.name, task.robot.tool_frame)
+        limits = robot_limits(robot, task)
+    timings["setup"] = time.perf_counter() - start
+
+    start = time.perf_counter()
+    if task.cartesian_waypoints is not None:
+        poses = [pose_from_position_quaternion(w.position, w.quaternion_xyzw) for w in task.cartesian_waypoints]
+        ik = solve_waypoints(robot, poses, hints=[w.hint for w in task.cartesian_waypoints])
+        via = np.array([solution.q for solution in ik])
+        timings["ik"] = time.perf_counter() - start
+    else:
+        via = task.joint_waypoints
+        if robot is not None and via.shape[1] != robot.dof:
+            raise TaskError("waypoints.joints_deg", f"has {via.shape[1]} joints, robot {robot.name!r} has {robot.dof}")
+    if robot is None:
+        limits = JointLimits.create(via.shape[1], **task.limits)
 
     start = time.perf_counter()
     settings = task.optimizer
@@ -134,4 +179,4 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
                               f"{result.max_ratio:.6g} (limit 1)")
     trajectory = problem.trajectory(result.durations)
     figures = kinematic_figures(trajectory)
-    return PlanResult(task, via, limits, result, trajectory, figures, timings)
+    return PlanResult(task, via, limits, result, trajectory, figures, timings, robot, ik)

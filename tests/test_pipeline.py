@@ -1,0 +1,115 @@
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+import yaml
+
+from planner import InfeasibleError, RobotError, TaskError, paper
+from planner.cli import main
+from planner.ik import pose_from_position_quaternion
+from planner.pipeline import plan
+from planner.task import load_task, parse_task
+
+ROOT = Path(__file__).resolve().parents[1]
+TASKS = ROOT / "scripts" / "tasks"
+
+
+def test_paper_cartesian_task_recovers_table_ii():
+    result = plan(TASKS / "puma560_paper_cartesian.yaml")
+    np.testing.assert_allclose(np.rad2deg(result.via_points), paper.VIA_POINTS_DEG, atol=1e-6)
+    assert all(s.residual <= 1e-9 for s in result.ik)
+    assert result.optimization.feasible and result.trajectory.total_time < 17.5
+    # The trajectory passes through the IK via-points at the via times.
+    np.testing.assert_allclose(result.trajectory.evaluate(result.trajectory.via_times), result.via_points, atol=1e-9)
+    summary = result.summary()
+    assert summary["robot"]["tool_frame"] == "tool" and len(summary["ik"]) == 8
+
+
+def test_ur5_task_plans_within_its_limits():
+    result = plan(TASKS / "ur5_pick_and_place.yaml")
+    assert result.robot.name == "ur5" and result.optimization.feasible
+    assert result.figures.violations(result.limits) == []
+    for solution, waypoint in zip(result.ik, result.task.cartesian_waypoints):
+        pose = result.robot.forward_kinematics(solution.q)
+        np.testing.assert_allclose(pose.translation, waypoint.position, atol=1e-9)
+
+
+def paper_cartesian(**changes) -> dict:
+    data = yaml.safe_load((TASKS / "puma560_paper_cartesian.yaml").read_text())
+    data["robot"]["urdf"] = str(ROOT / "robots" / "puma560.urdf")
+    data.update(changes)
+    return data
+
+
+@pytest.mark.parametrize("changes, error, message", [
+    ({"robot": {"name": "r2d2"}}, RobotError, "unknown robot 'r2d2'"),
+    ({"robot": {"urdf": str(ROOT / "robots" / "puma560.urdf"), "tool_frame": "hand"}}, RobotError,
+     "no frame 'hand'"),
+    ({"robot": {"name": "ur5", "tool_frame": "tool0"}}, RobotError,
+     "robot 'ur5' has no acceleration limit for joint 1 .*limits.acceleration_deg_s2"),
+    ({"limits": {"jerk_deg_s3": [1, 2]}}, TaskError, r"must have 6 values for robot 'puma560', got 2"),
+])
+def test_robot_task_errors(changes, error, message):
+    with pytest.raises(error, match=message):
+        plan(parse_task(paper_cartesian(**changes)))
+
+
+@pytest.mark.parametrize("waypoint, message", [
+    ({"xyz_m": [0, 0]}, r"waypoints.cartesian\[0\].xyz_m: must have 3 values"),
+    ({"xyz_m": [0, 0, 1]}, r"waypoints.cartesian\[0\]: needs exactly one of rpy_deg or quat_xyzw"),
+    ({"xyz_m": [0, 0, 1], "quat_xyzw": [0, 0, 0, 2]}, r"quat_xyzw: must be a unit quaternion"),
+    ({"xyz_m": [0, 0, 1], "rpy_deg": [0, 0, 0], "grip": 1}, r"cartesian\[0\].grip: unknown key"),
+])
+def test_bad_cartesian_waypoints(waypoint, message):
+    data = paper_cartesian()
+    data["waypoints"]["cartesian"][0] = waypoint
+    with pytest.raises(TaskError, match=message):
+        parse_task(data)
+
+
+def test_cartesian_without_robot_and_missing_urdf(tmp_path):
+    data = paper_cartesian()
+    del data["robot"]
+    with pytest.raises(TaskError, match="^robot: is required for cartesian waypoints"):
+        parse_task(data)
+    with pytest.raises(TaskError, match=r"^robot.urdf: file not found: nowhere.urdf"):
+        parse_task(paper_cartesian(robot={"urdf": "nowhere.urdf"}))
+
+
+def test_rpy_and_quaternion_waypoints_agree():
+    task = parse_task(paper_cartesian(waypoints={"cartesian": [
+        {"xyz_m": [0.4, 0, 0.5], "rpy_deg": [30, -20, 75]},
+        {"xyz_m": [0.4, 0, 0.5], "rpy_deg": [180, 0, 90]}]}))
+    for waypoint, rpy in zip(task.cartesian_waypoints, ([30, -20, 75], [180, 0, 90])):
+        expected = pin.rpy.rpyToMatrix(*np.deg2rad(rpy))
+        np.testing.assert_allclose(pose_from_position_quaternion(waypoint.position, waypoint.quaternion_xyzw).rotation,
+                                   expected, atol=1e-12)
+
+
+def test_joint_task_with_robot_checks_ranges_and_joint_count():
+    data = yaml.safe_load((TASKS / "puma560_paper_joint.yaml").read_text())
+    data["robot"] = {"urdf": str(ROOT / "robots" / "puma560.urdf"), "tool_frame": "tool"}
+    data["waypoints"]["joints_deg"][3][1] = -230
+    with pytest.raises(InfeasibleError, match="via-point 4 puts joint 2 at -4.01426 rad, outside its lower limit"):
+        plan(parse_task(data))
+    data["waypoints"]["joints_deg"] = [row[:5] for row in data["waypoints"]["joints_deg"]]
+    del data["limits"]
+    with pytest.raises(TaskError, match="has 5 joints, robot 'puma560' has 6"):
+        plan(parse_task(data))
+
+
+def test_unreachable_pose_exits_2_with_one_line(tmp_path, capsys):
+    data = paper_cartesian()
+    data["waypoints"]["cartesian"][2] = {"xyz_m": [3.0, 0.0, 1.0], "rpy_deg": [0, 0, 0]}
+    task = tmp_path / "far.yaml"
+    task.write_text(yaml.safe_dump(data))
+    assert main(["plan", str(task), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: waypoint 2: pose not reached") and err.count("\n") == 1
+    assert not (tmp_path / "out").exists()
+
+
+def test_bundled_tasks_load():
+    for path in sorted(TASKS.glob("*.yaml")):
+        assert load_task(path).name == path.stem
