@@ -23,3 +23,4 @@ bench: $(STAMP)
 	$(BIN)/python scripts/bench_splines.py
 	$(BIN)/python scripts/benchmark.py
 	$(BIN)/python scripts/bench_ik.py
+	$(BIN)/python scripts/bench_plan.py

@@ -1,4 +1,4 @@
-"""Command line: ``planner plan | reproduce``.
+"""Command line: ``planner plan | reproduce | replay``.
 
 Exit codes: 0 success, 2 bad input (any ``PlannerError`` about the input or
 an infeasible task), 1 anything else. Errors print one line on stderr.
@@ -9,6 +9,8 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+
+import numpy as np
 
 from .errors import PlannerError
 from .progress import TerminalProgress
@@ -25,6 +27,8 @@ def _plan(args) -> int:
               f"largest ratio {result.optimization.max_ratio:.4f}, feasible {result.optimization.feasible}")
         print(f"timings: {timing}")
         print(f"outputs in {out}/: " + ", ".join(sorted(p.name for p in out.iterdir())))
+        print(f"open the recording with: planner replay {out / 'trajectory.rrd'}  "
+              f"(check it without a viewer: add --check)")
     return 0
 
 
@@ -36,6 +40,36 @@ def _reproduce(args) -> int:
     if not args.quiet:
         print((out / "reproduction.md").read_text())
         print(f"written: {out}/reproduction.md, reproduction.json, figure4.png")
+    return 0
+
+
+def _replay(args) -> int:
+    from .export import write_trajectory_csv
+    from .kinematics import kinematic_figures
+    from .recording import read_recording
+    recorded = read_recording(args.recording)
+    if args.export_csv:
+        write_trajectory_csv(args.export_csv, recorded.trajectory, 1.0 / np.median(np.diff(recorded.times)))
+    if args.check:
+        figures = kinematic_figures(recorded.trajectory)
+        violations = figures.violations(recorded.limits)
+        rebuilt = recorded.trajectory.evaluate(recorded.times)
+        deviation = float(np.abs(rebuilt - recorded.positions).max())
+        ratio = float(np.nan_to_num(figures.ratios(recorded.limits)).max())
+        # Rerun stores time in whole nanoseconds: a sample may sit up to 0.5 ns off its time.
+        tolerance = 1e-9 * float(figures.max_abs[0].max()) + 1e-12
+        print(f"{args.recording}: {len(recorded.joint_names)} joints, {len(recorded.times)} samples, "
+              f"T = {recorded.trajectory.total_time:.4f} s, largest ratio {ratio:.4f}, "
+              f"samples vs trajectory {deviation:.2e} rad (allowed {tolerance:.1e}), "
+              f"{'limits hold' if not violations else 'VIOLATIONS: ' + '; '.join(violations)}")
+        return 0 if not violations and deviation <= tolerance else 1
+    if not args.export_csv:
+        import subprocess
+        try:
+            subprocess.Popen([sys.executable, "-m", "rerun", str(args.recording)])
+        except OSError as exc:
+            print(f"error: cannot start the Rerun viewer: {exc}", file=sys.stderr)
+            return 1
     return 0
 
 
@@ -54,6 +88,12 @@ def build_parser() -> argparse.ArgumentParser:
     reproduce.add_argument("--seed", type=int, default=0)
     reproduce.add_argument("--quiet", action="store_true")
     reproduce.set_defaults(run=_reproduce)
+    replay = commands.add_parser("replay", help="open a trajectory.rrd in the Rerun viewer, or check/export it")
+    replay.add_argument("recording", type=Path)
+    replay.add_argument("--check", action="store_true",
+                        help="read it back without a viewer and re-check it against its recorded limits")
+    replay.add_argument("--export-csv", type=Path, metavar="PATH", help="write its joint samples as CSV")
+    replay.set_defaults(run=_replay)
     return parser
 
 

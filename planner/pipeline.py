@@ -17,6 +17,7 @@ from .export import (atomic_output_folder, coefficients_document, write_json, wr
 from .kinematics import KinematicFigures, kinematic_figures
 from .limits import QUANTITIES, JointLimits
 from .progress import TerminalProgress
+from .recording import write_recording
 from .report import plot_profiles
 from .robot import Robot, load_robot
 from .splines import PiecewisePolynomial
@@ -103,7 +104,7 @@ class PlanResult:
         return summary
 
     def save(self, out_dir) -> Path:
-        """Write summary.json, trajectory.csv, coefficients.json and profiles.png into ``out_dir``.
+        """Write summary.json, trajectory.csv, coefficients.json, profiles.png and trajectory.rrd.
 
         All files are written to a temporary folder first and moved in only
         when every one of them is complete.
@@ -116,6 +117,7 @@ class PlanResult:
             plot_profiles(self.trajectory, self.limits, staging / "profiles.png",
                           title=f"{self.task.name}: {self.task.family}, T = {self.trajectory.total_time:.3f} s",
                           joint_names=self.joint_names)
+            write_recording(self, staging / "trajectory.rrd")
             self.timings_s["outputs"] = time.perf_counter() - start
             write_json(staging / "summary.json", self.summary())
         return out_dir
