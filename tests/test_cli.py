@@ -25,7 +25,7 @@ def test_plan_writes_consistent_outputs(tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["plan", str(small_task(tmp_path, bounds_s=[3, 5])), "--out", str(out)]) == 0
     assert sorted(p.name for p in out.iterdir()) == ["coefficients.json", "profiles.png", "summary.json",
-                                                     "trajectory.csv"]
+                                                     "trajectory.csv", "trajectory.rrd"]
     summary = json.loads((out / "summary.json").read_text())
     assert summary["total_time_s"] == pytest.approx(27.0) and summary["feasible"] is True
     assert summary["optimizer"]["algorithm"] == "cuckoo" and summary["optimizer"]["evaluations"] > 0
