@@ -194,7 +194,6 @@ def _normalised_derivatives(coefficients: np.ndarray, durations: np.ndarray, ord
     With P(s) = q(s h), P_d = h^(-d) d^d P / ds^d: one normalisation, then
     derivatives in s, padded with zeros to the full width.
     """
-    width = coefficients.shape[-1]
     position = _normalised(coefficients, durations)
     inverse = 1.0 / durations[..., None, None]
     parts = []

@@ -6,7 +6,6 @@ from pathlib import Path
 
 import numpy as np
 
-from .kinematics import KinematicFigures
 from .limits import QUANTITIES, JointLimits
 from .splines import PiecewisePolynomial
 
@@ -22,16 +21,6 @@ def markdown_table(header: list[str], rows: list[list]) -> str:
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     lines += ["| " + " | ".join(cell(v) for v in row) + " |" for row in rows]
     return "\n".join(lines)
-
-
-def kinematics_rows(figures: KinematicFigures, label: str = "") -> list[list]:
-    """Rows of per-joint max and mean |v|, |a|, |j| [deg-based] with the average over joints."""
-    rows = []
-    for name, table in (("max", figures.max_abs), ("mean", figures.mean_abs)):
-        for d, quantity in enumerate(QUANTITIES):
-            values = np.rad2deg(table[d])
-            rows.append([label, f"{name} |{quantity}| {_UNITS_DEG[d + 1]}", *values, float(values.mean())])
-    return rows
 
 
 def plot_profiles(trajectory: PiecewisePolynomial, limits: JointLimits, path: Path, *, title: str = "",

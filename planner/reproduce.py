@@ -51,7 +51,8 @@ def run_all(*, quick: bool = False, seed: int = 0, families=tuple(FAMILIES),
             for algorithm in OPTIMIZER_LABELS:
                 if algorithm == "cuckoo-paper" and bounds is None:
                     continue
-                settings = dict(QUICK_SETTINGS[algorithm]) if quick else {}
+                paper_settings = paper.CUCKOO_SETTINGS if algorithm.startswith("cuckoo") else {}
+                settings = dict(QUICK_SETTINGS[algorithm]) if quick else dict(paper_settings)
                 if progress:
                     progress.note(f"{family}, bounds {bounds}, {algorithm}")
                 runs.append(Run(family, bounds, algorithm, optimize(problem, algorithm, seed=seed, **settings)))

@@ -64,12 +64,6 @@ class Robot:
         return pin.computeFrameJacobian(self.model, self.data, np.asarray(q, dtype=float), self.tool_frame_id,
                                         pin.ReferenceFrame.LOCAL)
 
-    def link_poses(self, q) -> dict[str, pin.SE3]:
-        """World pose of every body frame (link) for ``q``, keyed by link name."""
-        pin.framesForwardKinematics(self.model, self.data, np.asarray(q, dtype=float))
-        return {frame.name: self.data.oMf[i].copy() for i, frame in enumerate(self.model.frames)
-                if frame.type == pin.FrameType.BODY}
-
     # ------------------------------------------------------------------ construction
 
     @classmethod

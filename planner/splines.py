@@ -59,10 +59,6 @@ class PiecewisePolynomial:
         return self.coefficients.shape[1]
 
     @property
-    def degree(self) -> int:
-        return self.coefficients.shape[2] - 1
-
-    @property
     def total_time(self) -> float:
         """T = sum of h_k [s]."""
         return float(self.durations.sum())
@@ -146,8 +142,6 @@ class SplineFamily:
     """A way to build a piecewise polynomial through n via-points from S durations."""
 
     name: str = ""
-    degree: int = 0
-    description: str = ""
 
     def segment_count(self, via_count: int) -> int:
         """How many durations the family needs for ``via_count`` via-points."""
@@ -205,8 +199,6 @@ class CubicFamily(SplineFamily):
     """
 
     name = "cubic"
-    degree = 3
-    description = "cubic spline, two virtual knots"
 
     def segment_count(self, via_count: int) -> int:
         return via_count + 1
@@ -294,8 +286,6 @@ class HybridFamily(CubicFamily):
     """
 
     name = "hybrid"
-    degree = 7
-    description = "cubic interior, 7th-order end segments"
 
     def batch_coefficients(self, via_points: np.ndarray, durations: np.ndarray) -> np.ndarray:
         cubic = super().batch_coefficients(via_points, durations)
@@ -335,8 +325,6 @@ class QuinticFamily(SplineFamily):
     """
 
     name = "quintic"
-    degree = 5
-    description = "interpolating quintic B-spline"
 
     def segment_count(self, via_count: int) -> int:
         return via_count - 1

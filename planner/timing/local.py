@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import minimize
 
-from ..kinematics import jerk_energy, max_abs, position_range
+from ..kinematics import batch_scale_factors, jerk_energy, position_range
 from .problem import TimingProblem
 from .result import SearchTracker
 
@@ -36,7 +36,7 @@ class _Model:
         """Objective (B,) and constraints (B, m) at durations h (B, S)."""
         p = self.problem
         coefficients = p.family.batch_coefficients(p.via_points, h)
-        ratios = p.limits.ratios(max_abs(coefficients, h))
+        ratios, _ = batch_scale_factors(coefficients, h, p.limits)
         constraints = [(1.0 - ratios ** self.roots)[:, self.limited]]
         if self.lower.any() or self.upper.any():
             low, high = position_range(coefficients, h)

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InfeasibleError, InputError
-from ..kinematics import jerk_energy, max_abs, position_range
+from ..kinematics import batch_scale_factors, jerk_energy, position_range
 from ..limits import QUANTITIES, UNITS, JointLimits, time_scale_factor
 from ..splines import PiecewisePolynomial, SplineFamily, get_family, powers
 from ..validate import finite_array
@@ -122,8 +122,8 @@ class TimingProblem:
                     joint=j, quantity="position", value=float(self.via_points[k, j]), limit=float(bound))
 
     def _check_upper_bound_feasible(self) -> None:
-        h = np.full((1, self.segment_count), self.bounds[1])
-        ratios = self.limits.ratios(max_abs(self.family.batch_coefficients(self.via_points, h), h))[0]
+        _, ratios, _ = self._figures(np.full((1, self.segment_count), self.bounds[1]))
+        ratios = ratios[0]
         if ratios.max() > 1.0 + FEASIBILITY_TOLERANCE:
             d, j = np.unravel_index(np.argmax(ratios), ratios.shape)
             value = ratios[d, j] * self.limits.magnitudes[d, j]
@@ -153,9 +153,9 @@ class TimingProblem:
     # ------------------------------------------------------------------ evaluation
 
     def _figures(self, durations: np.ndarray):
+        """Coefficients, constraint ratios (B, 3, J) and time-scale factors (B,) of durations (B, S)."""
         coefficients = self.family.batch_coefficients(self.via_points, durations)
-        ratios = self.limits.ratios(max_abs(coefficients, durations))
-        return coefficients, ratios
+        return (coefficients, *batch_scale_factors(coefficients, durations, self.limits))
 
     def _position_excess(self, coefficients: np.ndarray, durations: np.ndarray) -> np.ndarray:
         if not self.limits.has_position_range:
@@ -178,9 +178,8 @@ class TimingProblem:
         its positions unchanged.
         """
         x = np.atleast_2d(np.asarray(candidates, dtype=float))
-        coefficients, ratios = self._figures(x)
+        coefficients, ratios, scale = self._figures(x)
         energy = self._energy(coefficients, x)
-        scale = time_scale_factor(ratios)
         if self.objective_name == "time-jerk" and self.weights[1] > 0:
             ray_optimum = np.cbrt(np.sqrt(5.0 * self.weights[1] * energy / (self.weights[0] * x.sum(axis=1))))
             scale = np.maximum(scale, ray_optimum)
@@ -192,8 +191,7 @@ class TimingProblem:
                                energy / power[:, 5])
         for _ in range(_REPAIR_ROUNDS):
             h = np.clip(h, *self.bounds)
-            coefficients, ratios = self._figures(h)
-            excess = time_scale_factor(ratios)
+            coefficients, ratios, excess = self._figures(h)
             if np.all(excess <= 1.0 + FEASIBILITY_TOLERANCE):
                 break
             h = h * np.maximum(excess, 1.0)[:, None]
@@ -213,7 +211,7 @@ class TimingProblem:
     def evaluate_durations(self, durations) -> Evaluation:
         """Evaluate durations (B, S) [s] exactly as given, without repair."""
         h = np.atleast_2d(np.asarray(durations, dtype=float))
-        coefficients, ratios = self._figures(h)
+        coefficients, ratios, _ = self._figures(h)
         return self._score(h, ratios, self._position_excess(coefficients, h), self._energy(coefficients, h))
 
     def trajectory(self, durations) -> PiecewisePolynomial:

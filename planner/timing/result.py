@@ -68,10 +68,10 @@ class SearchTracker:
         """Evaluate a batch (repaired from the search box, or as durations) and track the best."""
         evaluation = self.problem.evaluate(candidates) if repair else self.problem.evaluate_durations(candidates)
         self.evaluations += len(evaluation.objective)
-        self.offer(evaluation)
+        self._offer(evaluation)
         return evaluation
 
-    def offer(self, evaluation: Evaluation) -> None:
+    def _offer(self, evaluation: Evaluation) -> None:
         i = int(np.argmin(evaluation.objective))
         if evaluation.objective[i] < self.best_objective:
             self.best_objective = float(evaluation.objective[i])
