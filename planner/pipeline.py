@@ -21,7 +21,7 @@ from .recording import write_recording
 from .report import plot_profiles
 from .robot import Robot, load_robot
 from .splines import PiecewisePolynomial
-from .task import Task, load_task
+from .task import Task, check_limit_counts, load_task
 from .timing import OptimizationResult, TimingProblem, optimize
 
 _LIMIT_UNITS = ("deg_s", "deg_s2", "deg_s3")
@@ -64,6 +64,9 @@ class PlanResult:
         ratios = self.figures.ratios(self.limits)
         result = self.optimization
         to_deg = np.rad2deg
+
+        def per_quantity_deg(table):
+            return {f"{q}_{_LIMIT_UNITS[d]}": to_deg(table[d]) for d, q in enumerate(QUANTITIES)}
         return {
             "task": self.task.name,
             "family": self.task.family,
@@ -74,10 +77,10 @@ class PlanResult:
             "total_time_s": self.trajectory.total_time,
             "feasible": result.feasible and not self.figures.violations(self.limits),
             "max_ratio": {q: ratios[d] for d, q in enumerate(QUANTITIES)},
-            "limits": {**{f"{q}_{_LIMIT_UNITS[d]}": to_deg(self.limits.magnitudes[d]) for d, q in enumerate(QUANTITIES)},
+            "limits": {**per_quantity_deg(self.limits.magnitudes),
                        "position_deg": {"lower": to_deg(self.limits.lower), "upper": to_deg(self.limits.upper)}},
-            "max_abs": {f"{q}_{_LIMIT_UNITS[d]}": to_deg(self.figures.max_abs[d]) for d, q in enumerate(QUANTITIES)},
-            "mean_abs": {f"{q}_{_LIMIT_UNITS[d]}": to_deg(self.figures.mean_abs[d]) for d, q in enumerate(QUANTITIES)},
+            "max_abs": per_quantity_deg(self.figures.max_abs),
+            "mean_abs": per_quantity_deg(self.figures.mean_abs),
             "position_range_deg": {"min": to_deg(self.figures.position_min), "max": to_deg(self.figures.position_max)},
             "jerk_energy_rad2_s5": self.figures.jerk_energy,
             "optimizer": {
@@ -125,9 +128,7 @@ class PlanResult:
 
 def robot_limits(robot: Robot, task: Task) -> JointLimits:
     """The robot's limits with the task's overrides; acceleration and jerk limits must exist."""
-    for key, values in task.limits.items():
-        if len(values) != robot.dof:
-            raise TaskError(f"limits ({key})", f"must have {robot.dof} values for robot {robot.name!r}, got {len(values)}")
+    check_limit_counts(task.limits, robot.dof, f"for robot {robot.name!r}")
     limits = robot.limits.with_overrides(**task.limits)
     for quantity, yaml_key in (("acceleration", "acceleration_deg_s2"), ("jerk", "jerk_deg_s3")):
         missing = np.flatnonzero(~np.isfinite(getattr(limits, quantity)))

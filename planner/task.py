@@ -272,6 +272,13 @@ def _trajectory(value, path: str) -> tuple[str, float]:
 # ---------------------------------------------------------------------------- entry points
 
 
+def check_limit_counts(limits: dict[str, np.ndarray], joints: int, context: str) -> None:
+    """Every limit override has one value per joint; the error names the task key."""
+    for key, values in limits.items():
+        if len(values) != joints:
+            raise TaskError(f"limits.{_LIMIT_KEY_OF[key]}", f"must have {joints} values {context}, got {len(values)}")
+
+
 def parse_task(data, *, name: str = "task", source: Path | None = None) -> Task:
     """Validate a task given as plain data (the parsed YAML)."""
     document = _mapping(data, "", _TOP_KEYS)
@@ -291,10 +298,7 @@ def parse_task(data, *, name: str = "task", source: Path | None = None) -> Task:
         raise TaskError("limits", "a joint-space task without a robot needs velocity_deg_s, "
                                   "acceleration_deg_s2 or jerk_deg_s3")
     if joints is not None:
-        for key, values in limits.items():
-            if len(values) != joints.shape[1]:
-                raise TaskError(f"limits.{_LIMIT_KEY_OF[key]}", f"must have {joints.shape[1]} values "
-                                                                f"(one per joint), got {len(values)}")
+        check_limit_counts(limits, joints.shape[1], "(one per joint)")
     family, rate = _trajectory(document.get("trajectory"), "trajectory")
     optimizer = _optimizer(document.get("optimizer"), "optimizer")
     label = _text(document["name"], "name") if "name" in document else name

@@ -48,7 +48,7 @@ def paper_cartesian(**changes) -> dict:
      "no frame 'hand'"),
     ({"robot": {"name": "ur5", "tool_frame": "tool0"}}, RobotError,
      "robot 'ur5' has no acceleration limit for joint 1 .*limits.acceleration_deg_s2"),
-    ({"limits": {"jerk_deg_s3": [1, 2]}}, TaskError, r"must have 6 values for robot 'puma560', got 2"),
+    ({"limits": {"jerk_deg_s3": [1, 2]}}, TaskError, r"^limits.jerk_deg_s3: must have 6 values for robot 'puma560', got 2"),
 ])
 def test_robot_task_errors(changes, error, message):
     with pytest.raises(error, match=message):
