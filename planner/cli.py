@@ -44,19 +44,20 @@ def _reproduce(args) -> int:
 
 
 def _replay(args) -> int:
-    from .export import write_trajectory_csv
+    from .export import atomic_file, write_trajectory_csv
     from .kinematics import kinematic_figures
     from .recording import read_recording
     recorded = read_recording(args.recording)
     if args.export_csv:
-        write_trajectory_csv(args.export_csv, recorded.trajectory, 1.0 / np.median(np.diff(recorded.times)))
+        with atomic_file(args.export_csv) as staging:
+            write_trajectory_csv(staging, recorded.trajectory, 1.0 / np.median(np.diff(recorded.times)))
     if args.check:
         figures = kinematic_figures(recorded.trajectory)
         violations = figures.violations(recorded.limits)
         rebuilt = recorded.trajectory.evaluate(recorded.times)
         deviation = float(np.abs(rebuilt - recorded.positions).max())
         ratio = float(np.nan_to_num(figures.ratios(recorded.limits)).max())
-        # Rerun stores time in whole nanoseconds: a sample may sit up to 0.5 ns off its time.
+        # Rerun stores time in whole nanoseconds: a sample may sit up to 1 ns off its time.
         tolerance = 1e-9 * float(figures.max_abs[0].max()) + 1e-12
         print(f"{args.recording}: {len(recorded.joint_names)} joints, {len(recorded.times)} samples, "
               f"T = {recorded.trajectory.total_time:.4f} s, largest ratio {ratio:.4f}, "

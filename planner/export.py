@@ -75,6 +75,21 @@ def coefficients_document(trajectory: PiecewisePolynomial, joint_names: list[str
 
 
 @contextmanager
+def atomic_file(path):
+    """Yield a temporary path beside ``path``; on success rename it to ``path``, else delete it."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    os.close(handle)
+    try:
+        yield Path(temporary)
+        os.replace(temporary, path)
+    finally:
+        if os.path.exists(temporary):
+            os.remove(temporary)
+
+
+@contextmanager
 def atomic_output_folder(out_dir):
     """Yield a fresh temporary folder; on success move its files into ``out_dir``, else delete it.
 

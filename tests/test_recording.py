@@ -98,3 +98,12 @@ def test_failure_midway_leaves_nothing(tmp_path, monkeypatch):
     out = tmp_path / "out"
     assert main(["plan", str(TASKS / "ur5_pick_and_place.yaml"), "--out", str(out), "--quiet"]) == 2
     assert list(tmp_path.iterdir()) == []
+
+
+def test_export_to_unwritable_place_leaves_nothing(planned, tmp_path, capsys):
+    _, out = planned
+    target = tmp_path / "x.csv"
+    target.mkdir()  # a folder where the file should go: the rename fails
+    assert main(["replay", str(out / "trajectory.rrd"), "--export-csv", str(target)]) == 1
+    assert capsys.readouterr().err.count("\n") == 1
+    assert [p.name for p in tmp_path.iterdir()] == ["x.csv"] and target.is_dir()
