@@ -43,7 +43,7 @@ class _Model:
             constraints.append((low - p.limits.lower)[:, self.lower])
             constraints.append((p.limits.upper - high)[:, self.upper])
         objective = h.sum(axis=1)
-        if p.objective_name == "time-jerk":
+        if p.uses_jerk_energy:
             objective = p.weights[0] * objective + p.weights[1] * jerk_energy(coefficients, h).sum(axis=1)
         self.tracker.evaluations += len(h)
         return objective, np.concatenate(constraints, axis=1)

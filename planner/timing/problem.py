@@ -164,9 +164,14 @@ class TimingProblem:
         excess = np.maximum(self.limits.lower - low, high - self.limits.upper)
         return np.maximum(excess.max(axis=1), 0.0)
 
+    @property
+    def uses_jerk_energy(self) -> bool:
+        """The objective has a jerk-energy term (``time-jerk`` with K_j > 0)."""
+        return self.objective_name == "time-jerk" and self.weights[1] > 0
+
     def _energy(self, coefficients: np.ndarray, durations: np.ndarray) -> np.ndarray:
         """(B,) total jerk energy when the objective uses it, else zeros."""
-        if self.objective_name == "time" or self.weights[1] == 0:
+        if not self.uses_jerk_energy:
             return np.zeros(len(durations))
         return jerk_energy(coefficients, durations).sum(axis=1)
 
@@ -180,7 +185,7 @@ class TimingProblem:
         x = np.atleast_2d(np.asarray(candidates, dtype=float))
         coefficients, ratios, scale = self._figures(x)
         energy = self._energy(coefficients, x)
-        if self.objective_name == "time-jerk" and self.weights[1] > 0:
+        if self.uses_jerk_energy:
             ray_optimum = np.cbrt(np.sqrt(5.0 * self.weights[1] * energy / (self.weights[0] * x.sum(axis=1))))
             scale = np.maximum(scale, ray_optimum)
         scale = np.where(scale > 0, scale, 1.0)
