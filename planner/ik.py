@@ -91,9 +91,7 @@ def _nearest_turn(robot: Robot, q: np.ndarray, reference: np.ndarray) -> np.ndar
     turns = np.round((reference - q) / (2 * np.pi))
     shifted = q + 2 * np.pi * turns
     inside = (shifted >= robot.limits.lower) & (shifted <= robot.limits.upper)
-    revolute = np.array([robot.model.joints[j].shortname().startswith(("JointModelR", "JointModelRevolute"))
-                         for j in range(1, robot.model.njoints)])
-    return np.where(inside & revolute, shifted, q)
+    return np.where(inside & robot.revolute, shifted, q)
 
 
 def solve_waypoints(robot: Robot, poses: list[pin.SE3], *, hints: list[np.ndarray | None] | None = None,

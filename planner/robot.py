@@ -10,6 +10,7 @@ the planned joints are exactly those of the tool frame's kinematic chain.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -52,6 +53,12 @@ class Robot:
     @property
     def dof(self) -> int:
         return self.model.nq
+
+    @cached_property
+    def revolute(self) -> np.ndarray:
+        """(nq,) whether each joint is revolute (angles that may be shifted by 2 pi)."""
+        return np.array([self.model.joints[j].shortname().startswith(("JointModelR", "JointModelRevolute"))
+                         for j in range(1, self.model.njoints)])
 
     def forward_kinematics(self, q) -> pin.SE3:
         """Pose of the tool frame in the world for joint positions ``q`` [rad]."""
