@@ -24,3 +24,4 @@ bench: $(STAMP)
 	$(BIN)/python scripts/benchmark.py
 	$(BIN)/python scripts/bench_ik.py
 	$(BIN)/python scripts/bench_plan.py
+	$(BIN)/python scripts/bench_scale.py

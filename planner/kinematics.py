@@ -207,6 +207,27 @@ def _normalised_derivatives(coefficients: np.ndarray, durations: np.ndarray, ord
     return np.concatenate(parts, axis=1)
 
 
+def _degree_blocks(coefficients: np.ndarray) -> list[tuple[np.ndarray, int]]:
+    """Segment indices grouped by degree (the highest power nonzero for any candidate or joint)."""
+    width = coefficients.shape[-1]
+    nonzero = _column_nonzero(coefficients)
+    top = np.where(nonzero.any(axis=1), width - 1 - np.argmax(nonzero[:, ::-1], axis=1), 0)
+    return [(np.flatnonzero(top == degree), max(int(degree), 1)) for degree in np.unique(top)]
+
+
+def _block_candidates(coefficients: np.ndarray, durations: np.ndarray, orders):
+    """For one block of segments of equal degree: the normalised derivatives P_d, stacked as in
+    ``_normalised_derivatives``, and the candidate points of their extremes (..., 2 + R): s = 0,
+    s = 1, then the roots of P_d' in [0, 1] (0 where a segment has fewer)."""
+    width = coefficients.shape[-1]
+    p = _normalised_derivatives(coefficients, durations, orders)
+    slope = p[..., 1:] * np.arange(1, width)
+    roots = np.nan_to_num(column_roots(slope), nan=0.0)
+    ends = np.zeros(p.shape[:-1] + (2,))
+    ends[..., 1] = 1.0
+    return p, np.concatenate((ends, roots), axis=-1)
+
+
 def segment_ranges(coefficients: np.ndarray, durations: np.ndarray, orders=(0,)):
     """Exact min and max of q^(d) on every segment, for each order d in ``orders``.
 
@@ -220,28 +241,45 @@ def segment_ranges(coefficients: np.ndarray, durations: np.ndarray, orders=(0,))
     Returns:
         (low, high), each (len(orders), B, S, J) [SI units of each order].
     """
-    batch, segments, joints, width = coefficients.shape
-    nonzero = _column_nonzero(coefficients)
-    top = np.where(nonzero.any(axis=1), width - 1 - np.argmax(nonzero[:, ::-1], axis=1), 0)
+    batch, segments, joints, _ = coefficients.shape
     low = np.empty((len(orders), batch, segments, joints))
     high = np.empty_like(low)
-    for degree in np.unique(top):
-        cols = np.flatnonzero(top == degree)
-        block = coefficients[:, cols, :, :max(int(degree), 1) + 1]
-        low[:, :, cols], high[:, :, cols] = _block_ranges(block, durations[:, cols], orders)
+    shape = (batch, len(orders), -1, joints)
+    for cols, degree in _degree_blocks(coefficients):
+        p, points = _block_candidates(coefficients[:, cols, :, :degree + 1], durations[:, cols], orders)
+        block_low, block_high = _last_axis_extremes(polyval(p, points))
+        low[:, :, cols] = block_low.reshape(shape).swapaxes(0, 1)
+        high[:, :, cols] = block_high.reshape(shape).swapaxes(0, 1)
     return low, high
 
 
-def _block_ranges(coefficients: np.ndarray, durations: np.ndarray, orders):
-    batch, segments, joints, width = coefficients.shape
-    p = _normalised_derivatives(coefficients, durations, orders)
-    slope = p[..., 1:] * np.arange(1, width)
-    roots = np.nan_to_num(column_roots(slope), nan=0.0)
-    ends = np.zeros(p.shape[:-1] + (2,))
-    ends[..., 1] = 1.0
-    low, high = _last_axis_extremes(polyval(p, np.concatenate((ends, roots), axis=-1)))
-    shape = (batch, len(orders), segments, joints)
-    return low.reshape(shape).swapaxes(0, 1), high.reshape(shape).swapaxes(0, 1)
+def segment_extrema(coefficients: np.ndarray, durations: np.ndarray, orders=(0,)):
+    """Where q^(d) may take its extremes on every segment, and its values there.
+
+    The candidates of ``segment_ranges``, kept: the ends s = 0 and s = 1 of
+    each segment (normalised time s = tau / h) and the roots of q^(d+1) inside.
+
+    Args:
+        coefficients: (B, S, J, D+1); durations: (B, S) [s].
+
+    Returns:
+        (locations, values), each (len(orders), B, S, J, C): s in [0, 1] (s = 0
+        repeated where a segment has fewer roots) and q^(d)(s h) [SI units of each order].
+    """
+    batch, segments, joints, _ = coefficients.shape
+    blocks = []
+    for cols, degree in _degree_blocks(coefficients):
+        p, points = _block_candidates(coefficients[:, cols, :, :degree + 1], durations[:, cols], orders)
+        shape = (batch, len(orders), len(cols), joints, points.shape[-1])
+        blocks.append((cols, points.reshape(shape).swapaxes(0, 1), polyval(p, points).reshape(shape).swapaxes(0, 1)))
+    count = max(points.shape[-1] for _, points, _ in blocks)
+    locations = np.zeros((len(orders), batch, segments, joints, count))
+    values = np.empty_like(locations)
+    for cols, points, found in blocks:
+        locations[:, :, cols, :, :points.shape[-1]] = points
+        values[:, :, cols] = found[..., :1]
+        values[:, :, cols, :, :found.shape[-1]] = found
+    return locations, values
 
 
 def max_abs(coefficients: np.ndarray, durations: np.ndarray) -> np.ndarray:

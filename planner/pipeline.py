@@ -6,7 +6,7 @@ Each stage takes and returns plain objects; this module only wires them.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -89,6 +89,8 @@ class PlanResult:
                 "objective_value": result.objective, "bounds_s": self.task.optimizer["bounds"],
                 "stop_reason": result.stop_reason, "settings": result.settings,
                 "best_per_iteration": result.history,
+                "refinement_starts": [asdict(start) for start in result.starts],
+                "starts_agree": result.starts_agree, "solver_iterations": result.solver_iterations,
             },
             "sample_rate_hz": self.task.sample_rate_hz,
             "timings_s": self.timings_s,

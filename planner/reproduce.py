@@ -24,10 +24,11 @@ from .report import markdown_table, plot_profiles
 from .splines import FAMILIES, get_family
 from .timing import OptimizationResult, TimingProblem, optimize
 
-OPTIMIZER_LABELS = {"cuckoo": "CS (ours: repair + SLSQP)", "cuckoo-paper": "CS (plain, as the paper)",
-                    "pso": "PSO", "de": "DE (scipy)", "slsqp": "SLSQP multi-start"}
+OPTIMIZER_LABELS = {"cuckoo": "CS (ours: repair + NLP)", "nlp": "sparse NLP (from cheap shapes)",
+                    "cuckoo-paper": "CS (plain, as the paper)", "pso": "PSO", "de": "DE (scipy)",
+                    "slsqp": "SLSQP multi-start"}
 #: Budgets small enough for a test run (``quick``).
-QUICK_SETTINGS = {"cuckoo": {"iterations": 10}, "cuckoo-paper": {"iterations": 10}, "pso": {"iterations": 10},
+QUICK_SETTINGS = {"cuckoo": {"iterations": 10}, "nlp": {}, "cuckoo-paper": {"iterations": 10}, "pso": {"iterations": 10},
                   "de": {"evaluations": 600}, "slsqp": {"starts": 2, "iterations": 20}}
 
 

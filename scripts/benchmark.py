@@ -61,7 +61,7 @@ def main() -> None:
     print(f"   default planner ({args.seeds} seeds): worst {default_times.max():.4f} s, "
           f"{100 * (default_times.max() / best - 1):.3f} % above best (target <= 0.1 % every seed)")
     print(f"3. wall time, median: CS paper budget {1000 * np.median(plain_wall):.1f} ms (target <= 50 ms); "
-          f"default planner {1000 * np.median(default_wall):.1f} ms (target <= 150 ms)")
+          f"default planner {1000 * np.median(default_wall):.1f} ms (target <= 100 ms)")
     failures = sum(bool(kinematic_figures(p.trajectory(r.durations)).violations(p.limits)) or not r.feasible
                    for p, r in checked)
     print(f"4. exact checks: {len(checked) - failures} of {len(checked)} returned trajectories pass")

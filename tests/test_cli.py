@@ -81,7 +81,7 @@ def test_reproduce_quick_writes_tables_and_figure(tmp_path):
     out = tmp_path / "repro"
     assert main(["reproduce", "--quick", "--quiet", "--out", str(out)]) == 0
     text = (out / "reproduction.md").read_text()
-    assert "| [3, 5] s | hybrid | CS (ours: repair + SLSQP) | 27.0000 |" in text
+    assert "| [3, 5] s | hybrid | CS (ours: repair + NLP) | 27.0000 |" in text
     assert "| [3, 5] s | hybrid | CS, the paper's Table IV | 38.3114 | 0.4013 |" in text
     assert "| max |velocity|, paper reports | 16.920 |" in text
     data = json.loads((out / "reproduction.json").read_text())

@@ -83,7 +83,7 @@ def test_bounds_respected_and_history_monotone():
 @pytest.mark.parametrize("algorithm", sorted(set(OPTIMIZERS) - {"cuckoo-paper"}))
 def test_every_optimizer_returns_a_feasible_trajectory(paper_problem, algorithm):
     budgets = {"cuckoo": {"iterations": 10}, "pso": {"iterations": 10}, "de": {"evaluations": 2000},
-               "slsqp": {"starts": 2, "iterations": 20}, "default": {}}
+               "slsqp": {"starts": 2, "iterations": 20}, "default": {}, "nlp": {}}
     result = optimize(paper_problem, algorithm, seed=0, **budgets[algorithm])
     assert result.feasible and result.evaluations > 0 and result.wall_time_s > 0
     figures = kinematic_figures(paper_problem.trajectory(result.durations))

@@ -5,15 +5,33 @@ from __future__ import annotations
 from ..errors import InputError
 from .baselines import multistart_slsqp, particle_swarm, scipy_differential_evolution
 from .cuckoo import cuckoo_search
+from .nlp import nlp_refine
 from .problem import Evaluation, TimingProblem
-from .result import OptimizationResult, Progress
+from .result import OptimizationResult, Progress, SearchTracker, StartReport
+from .starts import start_shapes
+
+#: Problems with at most this many segments get Cuckoo Search before the NLP in the default planner.
+EXPLORED_SEGMENTS = 16
+
+
+def shape_starts(problem: TimingProblem, *, seed: int | None = None,
+                 progress: Progress | None = None) -> OptimizationResult:
+    """The sparse NLP from the cheap shapes of ``starts.py`` (deterministic; ``seed`` is ignored)."""
+    tracker = SearchTracker(problem, progress, 1)
+    nlp_refine(problem, start_shapes(problem), tracker)
+    tracker.end_iteration()
+    return tracker.result("nlp", f"NLP from {len(tracker.starts)} shapes", None, {})
 
 
 def _default_planner(problem: TimingProblem, *, seed: int | None = 0, progress: Progress | None = None,
                      **settings) -> OptimizationResult:
-    """The project's default: a short improved Cuckoo Search (20 nests, 10 iterations) for global
-    exploration, then SLSQP refinement from its two best nests."""
-    settings = {"nests": 20, "iterations": 10, "refine_starts": 2} | settings
+    """The project's default. Up to ``EXPLORED_SEGMENTS`` segments: a short improved Cuckoo
+    Search (10 nests, 5 iterations) explores, then the NLP refines its two best nests. Larger
+    problems: the NLP from the cheap shapes (``shape_starts``), where exploring costs more than
+    it finds. Cuckoo Search ``settings``, when given, apply at any size."""
+    if problem.segment_count > EXPLORED_SEGMENTS and not settings:
+        return shape_starts(problem, progress=progress)
+    settings = {"nests": 10, "iterations": 5, "refine_starts": 2} | settings
     return cuckoo_search(problem, seed=seed, progress=progress, **settings)
 
 
@@ -24,6 +42,7 @@ def _paper_cuckoo(problem: TimingProblem, **settings) -> OptimizationResult:
 #: algorithm name -> optimizer(problem, **settings)
 OPTIMIZERS = {
     "default": _default_planner,
+    "nlp": shape_starts,
     "cuckoo": cuckoo_search,
     "cuckoo-paper": _paper_cuckoo,
     "pso": particle_swarm,
@@ -44,5 +63,5 @@ def optimize(problem: TimingProblem, algorithm: str = "default", **settings) -> 
         raise InputError(f"bad settings for optimizer {algorithm!r}: {exc}") from None
 
 
-__all__ = ["OPTIMIZERS", "Evaluation", "OptimizationResult", "TimingProblem", "cuckoo_search",
-           "multistart_slsqp", "optimize", "particle_swarm", "scipy_differential_evolution"]
+__all__ = ["OPTIMIZERS", "Evaluation", "OptimizationResult", "StartReport", "TimingProblem", "cuckoo_search",
+           "multistart_slsqp", "optimize", "particle_swarm", "scipy_differential_evolution", "shape_starts"]

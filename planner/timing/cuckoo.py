@@ -18,7 +18,8 @@ Variants:
   penalty where infeasible (needs duration bounds), as the source paper did.
 * ``improved`` (default): every candidate is repaired by the time-scaling
   lemma (feasible and tight in closed form) and the repaired durations
-  replace the nest (Lamarckian); the best is then refined by SLSQP.
+  replace the nest (Lamarckian); the best nests are then refined by the
+  sparse NLP (``nlp.py``).
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ from math import gamma, pi, sin
 import numpy as np
 
 from ..errors import InputError
-from .local import refine
+from .nlp import nlp_refine
 from .problem import TimingProblem
 from .result import OptimizationResult, Progress, SearchTracker
 
@@ -42,8 +43,8 @@ def mantegna_sigma(beta: float) -> float:
 
 def cuckoo_search(problem: TimingProblem, *, nests: int = 20, iterations: int = 150, pa: float = 0.25,
                   alpha: float | None = None, beta: float = 1.5, seed: int | None = 0,
-                  variant: str = "improved",
-                  polish: bool | None = None, refine_starts: int = 1, progress: Progress | None = None) -> OptimizationResult:
+                  variant: str = "improved", polish: bool | None = None, refine_starts: int = 1,
+                  progress: Progress | None = None) -> OptimizationResult:
     """Minimise the problem's objective with Cuckoo Search.
 
     Args:
@@ -54,18 +55,20 @@ def cuckoo_search(problem: TimingProblem, *, nests: int = 20, iterations: int = 
             on the paper case, and Yang and Deb's 0.01 for ``paper``).
         seed: seed of the ``numpy.random.Generator``; equal seeds give equal results.
         variant: ``improved`` or ``paper`` (see module docstring).
-        polish: refine by SLSQP at the end (default: True for ``improved``, False for ``paper``).
-        refine_starts: how many of the best final nests SLSQP starts from.
+        polish: refine by the sparse NLP at the end (default: True for ``improved``, False for ``paper``).
+        refine_starts: how many of the best final nests the NLP starts from.
         progress: called after every iteration.
     """
     if variant not in VARIANTS:
         raise InputError(f"unknown Cuckoo Search variant {variant!r}; known: {', '.join(VARIANTS)}")
     if alpha is None:
         alpha = 0.3 if variant == "improved" else 0.01
-    if nests < 2 or iterations < 1 or not 0 <= pa <= 1 or alpha <= 0 or not 1 < beta <= 2:
-        raise InputError(f"Cuckoo Search needs nests >= 2, iterations >= 1, 0 <= pa <= 1, alpha > 0 and "
-                         f"1 < beta <= 2; got nests={nests}, iterations={iterations}, pa={pa}, "
-                         f"alpha={alpha}, beta={beta}")
+    if (nests < 2 or iterations < 1 or not 0 <= pa <= 1 or alpha <= 0 or not 1 < beta <= 2
+            or not 1 <= refine_starts <= nests):
+        raise InputError(f"Cuckoo Search needs nests >= 2, iterations >= 1, 0 <= pa <= 1, alpha > 0, "
+                         f"1 < beta <= 2 and 1 <= refine_starts <= nests; got nests={nests}, "
+                         f"iterations={iterations}, pa={pa}, alpha={alpha}, beta={beta}, "
+                         f"refine_starts={refine_starts}")
     repair = variant == "improved"
     if not repair and problem.bounds is None:
         raise InputError("the plain paper variant of Cuckoo Search needs duration bounds")
@@ -93,13 +96,12 @@ def cuckoo_search(problem: TimingProblem, *, nests: int = 20, iterations: int = 
         x, fitness = _greedy(x, fitness, *assess(proposal))
         tracker.end_iteration()
     if polish:
-        for i in np.argsort(fitness)[:refine_starts]:
-            start = problem.evaluate(x[i:i + 1]).durations[0] if repair else x[i]
-            refine(problem, start, tracker)
+        best = np.argsort(fitness)[:refine_starts]
+        nlp_refine(problem, {f"nest {rank + 1}": x[i] for rank, i in enumerate(best)}, tracker)
     settings = {"nests": nests, "iterations": iterations, "pa": pa, "alpha": alpha, "beta": beta,
-                "variant": variant, "polish": polish}
+                "variant": variant, "polish": polish, "refine_starts": refine_starts}
     name = "cuckoo" if repair else "cuckoo-paper"
-    return tracker.result(name, f"completed {iterations} iterations" + (" and SLSQP refinement" if polish else ""),
+    return tracker.result(name, f"completed {iterations} iterations" + (" and NLP refinement" if polish else ""),
                           seed, settings)
 
 

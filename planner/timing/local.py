@@ -1,4 +1,4 @@
-"""Local refinement of durations by SLSQP on the smooth constraint form of spec §4.
+"""Local refinement of durations by SLSQP (the ``slsqp`` baseline), on the durations alone.
 
 Variables: the durations h [s]. Objective: sum h (or K_t sum h + K_j E).
 Constraints, one per limited (joint, order): g = 1 - r^(1/d) >= 0, which is
@@ -72,4 +72,4 @@ def refine(problem: TimingProblem, start: np.ndarray, tracker: SearchTracker, ma
         constraints=[{"type": "ineq", "fun": lambda x: model.at(x).g, "jac": lambda x: model.at(x).dg}],
         options={"maxiter": max_iterations, "ftol": 1e-12})
     if np.all(np.isfinite(solution.x)) and np.all(solution.x > 0):
-        tracker.evaluate(problem.to_search_space(solution.x[None]))
+        tracker.evaluate(solution.x[None])

@@ -12,11 +12,20 @@ h = s x. For ``time`` the scale is s* (the smallest feasible); for
 minimises K_t s T + K_j s^-5 E along the ray. With bounds the repaired
 durations are clipped to [h_min, h_max] and the scaling repeated a few times;
 what is still infeasible then is penalised.
+
+Repeated via-points. Consecutive via-points equal in every joint (within
+``REPEAT_TOLERANCE``) are one stop of the path, passed once: the problem
+keeps one of them, so their segment has zero duration and the robot does not
+stop there unless the spline makes it. (Keeping a zero-motion segment of
+positive duration would force a stop or a loop; its optimal duration tends to
+zero anyway.) Via-points equal in only some joints are ordinary: those joints
+get a segment with zero net motion, shaped by the spline like any other. A
+task whose via-points are all equal has no motion to time and is an error.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -27,6 +36,8 @@ from ..splines import PiecewisePolynomial, SplineFamily, get_family, powers
 from ..validate import finite_array
 
 OBJECTIVES = ("time", "time-jerk")
+#: Consecutive via-points closer than this in every joint [rad] are one via-point.
+REPEAT_TOLERANCE = 1e-9
 FEASIBILITY_TOLERANCE = 1e-9
 _REPAIR_ROUNDS = 6
 _PENALTY = 1e3
@@ -56,8 +67,13 @@ class Evaluation:
 class TimingProblem:
     """Via-points, a spline family, limits, optional bounds and an objective.
 
+    Attributes:
+        given_via_points: (n, J) the via-points as given [rad].
+        via_points: (n', J) the distinct via-points the timing is computed for: repeats merged.
+        via_index: (n,) the row of ``via_points`` each given via-point is.
+
     Args:
-        via_points: (n, J) joint via-points [rad], n >= 2.
+        via_points: (n, J) joint via-points [rad], n >= 2, not all equal.
         family: a ``SplineFamily`` or its name.
         limits: ``JointLimits`` (SI); at least one magnitude limit or a lower bound is needed.
         bounds: optional (h_min, h_max) [s] for every segment duration.
@@ -65,7 +81,7 @@ class TimingProblem:
         weights: (K_t, K_j) of the ``time-jerk`` objective [1/s, s^5/rad^2].
 
     Raises:
-        InputError: malformed via-points, bounds, objective or weights.
+        InputError: malformed via-points (or all equal), bounds, objective or weights.
         InfeasibleError: a via-point outside its joint's range, or a limit
             violated even with every duration at h_max.
     """
@@ -74,7 +90,9 @@ class TimingProblem:
                  bounds: tuple[float, float] | None = None, objective: str = "time",
                  weights: tuple[float, float] = (1.0, 1.0)):
         self.family = get_family(family) if isinstance(family, str) else family
-        self.via_points, _ = self.family.check(via_points, np.ones(self.family.segment_count(len(via_points))))
+        given, _ = self.family.check(via_points, np.ones(self.family.segment_count(len(via_points))))
+        self.given_via_points = given
+        self.via_points, self.via_index = _merge_repeats(given)
         self.limits = limits
         if limits.joint_count != self.joint_count:
             raise InputError(f"limits are for {limits.joint_count} joints, via-points have {self.joint_count}")
@@ -110,16 +128,16 @@ class TimingProblem:
         return float(array[0]), float(array[1])
 
     def _check_via_points_in_range(self) -> None:
-        for name, outside in (("lower", self.via_points < self.limits.lower),
-                              ("upper", self.via_points > self.limits.upper)):
+        for name, outside in (("lower", self.given_via_points < self.limits.lower),
+                              ("upper", self.given_via_points > self.limits.upper)):
             hits = np.argwhere(outside)
             if hits.size:
                 k, j = (int(i) for i in hits[0])
                 bound = getattr(self.limits, name)[j]
                 raise InfeasibleError(
-                    f"via-point {k + 1} puts joint {j + 1} at {self.via_points[k, j]:.6g} rad, "
+                    f"via-point {k + 1} puts joint {j + 1} at {self.given_via_points[k, j]:.6g} rad, "
                     f"outside its {name} limit {bound:.6g} rad",
-                    joint=j, quantity="position", value=float(self.via_points[k, j]), limit=float(bound))
+                    joint=j, quantity="position", value=float(self.given_via_points[k, j]), limit=float(bound))
 
     def _check_upper_bound_feasible(self) -> None:
         _, ratios, _ = self._figures(np.full((1, self.segment_count), self.bounds[1]))
@@ -220,5 +238,21 @@ class TimingProblem:
         return self._score(h, ratios, self._position_excess(coefficients, h), self._energy(coefficients, h))
 
     def trajectory(self, durations) -> PiecewisePolynomial:
-        """The family's trajectory for one duration vector (S,) [s]."""
-        return self.family.build(self.via_points, durations)
+        """The family's trajectory for one duration vector (S,) [s]; its ``via_knots`` has one
+        entry per given via-point (repeated ones share a knot)."""
+        built = self.family.build(self.via_points, durations)
+        return replace(built, via_knots=built.via_knots[self.via_index])
+
+
+def _merge_repeats(via_points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Distinct consecutive via-points (n', J) and the index (n,) of each given one among them.
+
+    Raises:
+        InputError: every via-point is the same (nothing to time).
+    """
+    step = np.abs(np.diff(via_points, axis=0)).max(axis=1)
+    new = np.concatenate(([True], step > REPEAT_TOLERANCE))
+    if new.sum() < 2:
+        raise InputError(f"all {len(via_points)} via-points are the same joint position "
+                         f"(within {REPEAT_TOLERANCE:g} rad): there is no motion to time")
+    return via_points[new], np.cumsum(new) - 1

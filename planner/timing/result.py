@@ -14,6 +14,32 @@ from .problem import Evaluation, TimingProblem
 Progress = Callable[[int, int, float], None]
 
 
+#: Starts whose repaired objectives are within this relative gap of the best agree.
+AGREEMENT = 1e-4
+
+
+@dataclass(frozen=True)
+class StartReport:
+    """One start of a local refinement (the sparse NLP) and where it ended.
+
+    Attributes:
+        label: where the start came from (``nest 1``, ``rest-to-rest``, ...).
+        objective: objective of the refined, repaired durations (total time [s] for ``time``).
+        feasible: the repaired result passed the exact check.
+        iterations: solver iterations over all rounds; rounds: solves made.
+        status: the solver's last return status.
+        certificates: certificates the last round needed.
+    """
+
+    label: str
+    objective: float
+    feasible: bool
+    iterations: int
+    rounds: int
+    status: str
+    certificates: int
+
+
 @dataclass(frozen=True)
 class OptimizationResult:
     """Outcome of one optimizer run on a ``TimingProblem``.
@@ -31,6 +57,7 @@ class OptimizationResult:
         stop_reason: why the run ended.
         seed: the seed of its random generator (None when deterministic).
         settings: the algorithm's settings.
+        starts: the refinement's starts, when it ran the sparse NLP.
     """
 
     algorithm: str
@@ -45,10 +72,24 @@ class OptimizationResult:
     stop_reason: str
     seed: int | None
     settings: dict = field(default_factory=dict)
+    starts: list[StartReport] = field(default_factory=list)
 
     @property
     def max_ratio(self) -> float:
         return float(self.ratios.max())
+
+    @property
+    def starts_agree(self) -> bool | None:
+        """Every refinement start ended feasible within ``AGREEMENT`` of the best (None without starts)."""
+        if not self.starts:
+            return None
+        values = np.array([s.objective if s.feasible else np.inf for s in self.starts])
+        return bool(np.all(values <= values.min() * (1 + AGREEMENT)))
+
+    @property
+    def solver_iterations(self) -> int:
+        """Solver iterations over all refinement starts."""
+        return sum(s.iterations for s in self.starts)
 
 
 class SearchTracker:
@@ -60,6 +101,7 @@ class SearchTracker:
         self.best_durations: np.ndarray | None = None
         self.best_objective = np.inf
         self.history: list[float] = []
+        self.starts: list[StartReport] = []
         self._progress = progress
         self._total = total_iterations
         self._start = time.perf_counter()
@@ -89,4 +131,5 @@ class SearchTracker:
             algorithm=algorithm, durations=final.durations[0], total_time=float(final.durations[0].sum()),
             objective=float(final.objective[0]), ratios=final.ratios[0], feasible=bool(final.feasible[0]),
             evaluations=self.evaluations, wall_time_s=time.perf_counter() - self._start,
-            history=list(self.history), stop_reason=stop_reason, seed=seed, settings=settings)
+            history=list(self.history), stop_reason=stop_reason, seed=seed, settings=settings,
+            starts=list(self.starts))

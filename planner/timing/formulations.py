@@ -1,0 +1,298 @@
+"""Each spline family written for the sparse timing NLP: durations and knot states as variables.
+
+A family's build (``splines.py``) fixes the knot states (velocities,
+accelerations, ...) from the durations by a linear solve. The sparse NLP
+(``nlp.py``) instead makes them decision variables next to the durations and
+imposes the family's continuity conditions as equality constraints. Each of
+those involves one segment only, so the constraint Jacobian is banded and the
+problem grows linearly with the number of via-points; the solver sees exact
+derivatives of smooth expressions.
+
+Conventions: on segment k, s = tau / h_k in [0, 1] is normalised time and
+P(s) = q(s h_k) the normalised polynomial, with coefficients b_i = c_i h_k^i,
+so that q^(d)(s h_k) = h_k^(-d) P^(d)(s). Variables are scaled to order one:
+durations by a time scale [s], and each joint's knot states by that joint's
+characteristic velocity, acceleration, jerk and snap (``Scales``).
+
+Expressions are CasADi ``MX`` matrices shaped (segments or knots, joints).
+CasADi is imported lazily: importing the planner does not load it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from math import factorial
+
+import numpy as np
+
+from ..limits import JointLimits
+from ..splines import SplineFamily, derivative_coefficients, hermite7
+
+#: The hybrid family's end segment in normalised time (spec §2.2): the cubic end segment
+#: y_0 + M_1 h^2 s^3 / 6 becomes y_0 + M_1 h^2 P(s), P the 7th-order polynomial from rest
+#: to the state (1/6, 1/2, 1, 1) of s^3 / 6 at s = 1. P, P' and P'' rise monotonically to
+#: 1/6, 1/2 and 1 at s = 1 (so the segment's speed and acceleration peak at its knot), and
+#: its jerk peaks inside: max P''' = 1.3869...
+HYBRID_END = hermite7(np.zeros(4), np.array([1 / 6, 1 / 2, 1.0, 1.0]), np.array(1.0))
+
+
+def _peak(coefficients: np.ndarray) -> float:
+    """max |p(s)| over s in [0, 1] of a numeric polynomial (lowest order first)."""
+    polynomial = np.polynomial.Polynomial(coefficients)
+    roots = polynomial.deriv().roots()
+    candidates = np.concatenate(([0.0, 1.0], roots[(np.abs(roots.imag) < 1e-12) & (roots.real > 0)
+                                                   & (roots.real < 1)].real))
+    return float(np.abs(polynomial(candidates)).max())
+
+
+#: max |P'''| of ``HYBRID_END`` on [0, 1]: the end segment's largest jerk is this times |M_1| / h_0.
+HYBRID_END_JERK = _peak(derivative_coefficients(HYBRID_END, 3))
+
+
+@dataclass(frozen=True)
+class Scales:
+    """Characteristic magnitudes that scale the NLP's variables and constraints to order one.
+
+    Attributes:
+        time: a typical segment duration [s].
+        derivatives: (4, J) typical |q^(d)| for d = 1..4 [rad/s^d]: the limit where one is
+            given, else the reference trajectory's peak, else 1; snap is jerk / time.
+    """
+
+    time: float
+    derivatives: np.ndarray
+
+    @classmethod
+    def of(cls, limits: JointLimits, durations: np.ndarray, peaks: np.ndarray) -> "Scales":
+        """Scales from the limits and a reference trajectory (durations (S,), peaks (3, J) [SI])."""
+        magnitudes = limits.magnitudes
+        fallback = np.where(peaks > 0, peaks, 1.0)
+        typical = np.where(np.isfinite(magnitudes), magnitudes, fallback)
+        time = float(np.mean(durations))
+        return cls(time, np.vstack((typical, typical[2] / time)))
+
+
+@dataclass
+class SegmentBlock:
+    """Segments sharing one polynomial degree, as their normalised coefficients.
+
+    Attributes:
+        segments: (K,) segment indices.
+        coefficients: D + 1 expressions (K, J): the coefficients b_0 .. b_D of P(s).
+        certified: derivative orders (0 = position) whose extremes inside these segments
+            the NLP must bound by certificates; the others are bounded exactly by the
+            formulation's own constraints.
+    """
+
+    segments: np.ndarray
+    coefficients: list
+    certified: tuple[int, ...] = ()
+
+    @property
+    def degree(self) -> int:
+        return len(self.coefficients) - 1
+
+
+@dataclass
+class SymbolicSpline:
+    """A family's spline as expressions of the durations and its knot-state variables.
+
+    Attributes:
+        states: the scaled knot-state variables (a column).
+        lower, upper: their bounds: the exact knot limits (+-inf where none).
+        equalities: continuity conditions, each zero at a valid spline.
+        constraints: exact limit constraints (expression, lower, upper), scaled to order one.
+        blocks: the segments as normalised polynomials.
+    """
+
+    states: object
+    lower: np.ndarray
+    upper: np.ndarray
+    equalities: object
+    constraints: list = field(default_factory=list)
+    blocks: list = field(default_factory=list)
+
+
+class SplineFormulation:
+    """The symbolic form of one family for given via-points, limits and scales."""
+
+    def __init__(self, family: SplineFamily, via_points: np.ndarray, limits: JointLimits, scales: Scales):
+        self.family = family
+        self.via_points = via_points
+        self.limits = limits
+        self.scales = scales
+
+    @property
+    def joint_count(self) -> int:
+        return self.via_points.shape[1]
+
+    def build(self, h) -> SymbolicSpline:
+        """The spline for symbolic durations ``h`` (S x 1) [s]."""
+        raise NotImplementedError
+
+    def state_values(self, coefficients: np.ndarray, durations: np.ndarray) -> np.ndarray:
+        """The scaled knot states of a built spline (coefficients (S, J, D+1), durations (S,))."""
+        raise NotImplementedError
+
+    def _scaled_bounds(self, order: int, count: int) -> np.ndarray:
+        """(count * J,) bounds of scaled knot values of derivative ``order``, joint-major."""
+        limit = self.limits.magnitudes[order - 1] if order <= 3 else np.full(self.joint_count, np.inf)
+        return np.repeat(limit / self.scales.derivatives[order - 1], count)
+
+
+def _columns(ca, values: np.ndarray):
+    """A constant (K, J) matrix for CasADi."""
+    return ca.DM(np.asarray(values, dtype=float))
+
+
+def _per_joint(ca, row: np.ndarray, count: int):
+    """The (count, J) constant matrix whose every row is ``row``."""
+    return ca.repmat(ca.DM(np.asarray(row, dtype=float).reshape(1, -1)), count, 1)
+
+
+class CubicFormulation(SplineFormulation):
+    """``cubic`` and ``hybrid`` (spec §2.1, §2.2) with knot velocities v_k and accelerations M_k.
+
+    Knots k = 0 .. m-1 (m = n + 2), segments k = 0 .. S-1 (S = n + 1); v and M
+    vanish at both ends and are variables at the n interior knots. The knot
+    positions are the via-points except the virtual knots, which the zero end
+    velocity fixes in closed form: y_1 = p_0 + h_0^2 M_1 / 6, y_{m-2} = p_{n-1} + h_{S-1}^2 M_{m-2} / 6.
+    Segment k is the cubic with these end states; its conditions are
+
+        v_{k+1} - v_k = h_k (M_k + M_{k+1}) / 2,
+        y_{k+1} - y_k = h_k (v_k + v_{k+1}) / 2 - h_k^2 (M_{k+1} - M_k) / 12,
+
+    the second one only on interior segments (on the end segments it repeats the first).
+
+    Exact limits: acceleration is linear on every cubic segment, so |M_k| <= A
+    (variable bounds) is exact; velocity at the knots |v_k| <= V (bounds), its
+    interior extremes certified by the NLP; jerk (M_{k+1} - M_k) / h_k is
+    constant, so |M_{k+1} - M_k| <= Jk h_k is exact; the virtual knots stay in
+    the position range, interior position extremes are certified. The hybrid's
+    7th-order end segments are y_0 + M_1 h_0^2 P(s) (``HYBRID_END``): their
+    speed, acceleration and position are monotone up to the knot values, and
+    their jerk peaks at 1.3869 |M_1| / h_0, bounded exactly like a cubic's.
+    """
+
+    def build(self, h) -> SymbolicSpline:
+        import casadi as ca
+
+        via, scales = self.via_points, self.scales
+        n, joints = via.shape
+        segments = n + 1
+        hybrid = self.family.name == "hybrid"
+        states = ca.MX.sym("knot_states", 2 * n * joints)
+        velocity = ca.reshape(states[:n * joints], n, joints) * _per_joint(ca, scales.derivatives[0], n)
+        acceleration = ca.reshape(states[n * joints:], n, joints) * _per_joint(ca, scales.derivatives[1], n)
+        rest = ca.MX.zeros(1, joints)
+        v = ca.vertcat(rest, velocity, rest)
+        m = ca.vertcat(rest, acceleration, rest)
+        duration = ca.repmat(h, 1, joints)
+        first = _columns(ca, via[:1]) + h[0] ** 2 * acceleration[0, :] / 6
+        last = _columns(ca, via[-1:]) + h[segments - 1] ** 2 * acceleration[n - 1, :] / 6
+        y = ca.vertcat(_columns(ca, via[:1]), first, _columns(ca, via[1:-1]), last, _columns(ca, via[-1:]))
+        v0, v1, m0, m1 = v[:-1, :], v[1:, :], m[:-1, :], m[1:, :]
+        speed_scale = _per_joint(ca, scales.derivatives[0], segments)
+        velocity_step = (v1 - v0 - duration * (m0 + m1) / 2) / speed_scale
+        inner = slice(1, segments - 1)
+        position_step = (y[1:, :] - y[:-1, :] - duration * (v0 + v1) / 2
+                         + duration ** 2 * (m1 - m0) / 12)[inner, :] / (speed_scale[inner, :] * scales.time)
+        constraints = []
+        jerk = self.limits.jerk
+        factor = np.ones(segments)
+        if hybrid:
+            factor[[0, -1]] = HYBRID_END_JERK
+        for j in np.flatnonzero(np.isfinite(jerk)):
+            constraints.append((ca.DM(factor) * (m1[:, j] - m0[:, j]) / (jerk[j] * h), -1.0, 1.0))
+        lower, upper = self.limits.lower, self.limits.upper
+        for j in np.flatnonzero(np.isfinite(lower) | np.isfinite(upper)):
+            constraints.append((ca.vertcat(first[j], last[j]), lower[j], upper[j]))
+        cubic = [y[:-1, :], v0 * duration, m0 * duration ** 2 / 2, (m1 - m0) * duration ** 2 / 6]
+        all_segments = np.arange(segments)
+        if hybrid:
+            ends = np.array([0, segments - 1])
+            inside = all_segments[1:-1]
+            blocks = [SegmentBlock(inside, [b[inside.tolist(), :] for b in cubic], (0, 1)),
+                      SegmentBlock(ends, self._hybrid_ends(ca, h, acceleration, segments))]
+        else:
+            blocks = [SegmentBlock(all_segments, cubic, (0, 1))]
+        bounds = np.concatenate((self._scaled_bounds(1, n), self._scaled_bounds(2, n)))
+        return SymbolicSpline(states, -bounds, bounds, ca.vertcat(ca.vec(velocity_step), ca.vec(position_step)),
+                              constraints, blocks)
+
+    def _hybrid_ends(self, ca, h, acceleration, segments: int) -> list:
+        """Normalised coefficients (2, J) of the hybrid's two 7th-order end segments."""
+        via = self.via_points
+        reflected = np.polynomial.Polynomial(HYBRID_END)(np.polynomial.Polynomial([1.0, -1.0])).coef
+        reflected = np.pad(reflected, (0, len(HYBRID_END) - len(reflected)))
+        gain = ca.vertcat(h[0] ** 2 * acceleration[0, :], h[segments - 1] ** 2 * acceleration[-1, :])
+        start = _columns(ca, np.vstack((via[0], via[-1])))
+        coefficients = []
+        for i in range(len(HYBRID_END)):
+            shape = ca.repmat(ca.DM([HYBRID_END[i], reflected[i]]), 1, self.joint_count)
+            coefficients.append(shape * gain + start if i == 0 else shape * gain)
+        return coefficients
+
+    def state_values(self, coefficients: np.ndarray, durations: np.ndarray) -> np.ndarray:
+        # Knot k = 1 .. S-1 starts segment k, whose tau = 0 state the hybrid's end segment keeps too.
+        interior = coefficients[1:]
+        return np.concatenate(((interior[:, :, 1] / self.scales.derivatives[0]).T.ravel(),
+                               (2 * interior[:, :, 2] / self.scales.derivatives[1]).T.ravel()))
+
+
+class QuinticFormulation(SplineFormulation):
+    """``quintic`` (spec §2.3) with knot velocities, accelerations, jerks and snaps.
+
+    Knots are the via-points, segment k joins knots k and k+1 (S = n - 1).
+    Velocity and acceleration vanish at both ends; jerk and snap are free there.
+    Segment k is the quintic that starts in the knot state (p_k, v_k, a_k,
+    j_k, s_k) and ends at p_{k+1}: b_0 .. b_4 = p_k, v_k h, a_k h^2 / 2, j_k h^3 / 6,
+    s_k h^4 / 24 and b_5 = p_{k+1} - (b_0 + .. + b_4). Its conditions: velocity,
+    acceleration, jerk and snap at its end equal knot k+1's state (C4).
+
+    Exact limits: |v|, |a|, |j| at the knots are variable bounds; their interior
+    extremes (and the position's) are certified by the NLP.
+    """
+
+    def build(self, h) -> SymbolicSpline:
+        import casadi as ca
+
+        via, scales = self.via_points, self.scales
+        n, joints = via.shape
+        segments = n - 1
+        inner, ends = max(n - 2, 0), n
+        counts = (inner, inner, ends, ends)  # variables of v, a (interior knots) and j, s (every knot)
+        states = ca.MX.sym("knot_states", sum(counts) * joints)
+        knots, offset = [], 0
+        rest = ca.MX.zeros(1, joints)
+        for order, count in enumerate(counts, start=1):
+            block = ca.reshape(states[offset:offset + count * joints], count, joints)
+            block = block * _per_joint(ca, scales.derivatives[order - 1], count)
+            knots.append(ca.vertcat(rest, block, rest) if order <= 2 else block)
+            offset += count * joints
+        duration = ca.repmat(h, 1, joints)
+        powers = [duration ** i for i in range(5)]
+        start = [_columns(ca, via[:-1])] + [knots[d - 1][:-1, :] * powers[d] / factorial(d) for d in range(1, 5)]
+        coefficients = start + [_columns(ca, via[1:]) - sum(start)]
+        equalities = []
+        for d in range(1, 5):
+            at_end = sum(coefficients[i] * (factorial(i) / factorial(i - d)) for i in range(d, 6))
+            mismatch = (at_end / powers[d] - knots[d - 1][1:, :]) / _per_joint(ca, scales.derivatives[d - 1], segments)
+            equalities.append(ca.vec(mismatch))
+        bounds = np.concatenate([self._scaled_bounds(order, count) for order, count in enumerate(counts, start=1)])
+        return SymbolicSpline(states, -bounds, bounds, ca.vertcat(*equalities),
+                              blocks=[SegmentBlock(np.arange(segments), coefficients, (0, 1, 2, 3))])
+
+    def state_values(self, coefficients: np.ndarray, durations: np.ndarray) -> np.ndarray:
+        # Knot states: each segment's start, and the last segment's end for the final knot.
+        end = np.stack([np.polynomial.polynomial.polyval(durations[-1], derivative_coefficients(
+            coefficients[-1], d).T) for d in range(5)], axis=-1)  # (J, 5)
+        states = np.concatenate((coefficients[:, :, :5] * [factorial(d) for d in range(5)], end[None]), axis=0)
+        values = []
+        for order in range(1, 5):
+            knot = states[:, :, order] if order > 2 else states[1:-1, :, order]
+            values.append((knot / self.scales.derivatives[order - 1]).T.ravel())
+        return np.concatenate(values)
+
+
+FORMULATIONS = {"cubic": CubicFormulation, "hybrid": CubicFormulation, "quintic": QuinticFormulation}

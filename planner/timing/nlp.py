@@ -1,0 +1,432 @@
+"""The timing problem as a sparse NLP with exact derivatives, solved by IPOPT through CasADi.
+
+Decision variables: the segment durations h and the family's knot states
+(``formulations.py``); every continuity condition involves one segment, so
+the Jacobians are banded and the problem grows linearly with n.
+
+    minimise    sum_k h_k                       (objective ``time``), or
+                K_t sum_k h_k + K_j sum_j int q_j'''(t)^2 dt    (``time-jerk``; on each segment
+                the integral is h^-5 int_0^1 P'''(s)^2 ds, a polynomial in the knot states)
+    subject to  the family's continuity conditions (equalities),
+                its exact limits: knot values (variable bounds), constant jerks, virtual knots,
+                certificates for the extremes inside segments (below),
+                h_min <= h_k <= h_max, or h_k >= 1e-6 of the time scale when unbounded.
+
+Certificates. Inside a segment a limited quantity f(s) = q^(d)(s h) (the
+velocity of a cubic, the jerk of a quintic, a position, ...) must stay within
+its bound for every s in [0, 1]: p(s) = side (bound - f(s)) / scale >= 0 there.
+By Lukacs' theorem such a polynomial is a sum of squares weighted by s and
+1 - s, which gives exact, smooth constraints with one or two extra variables:
+
+* f quadratic, p = p0 + p1 s + p2 s^2: p >= 0 on [0, 1] if and only if some
+  lambda >= 0 makes p(s) - lambda s (1 - s) a square, i.e. the matrix
+  [[p0, (p1 - lambda) / 2], [(p1 - lambda) / 2, p2 + lambda]] is positive semidefinite:
+  p0 >= 0, p2 + lambda >= 0 and 4 p0 (p2 + lambda) - (p1 - lambda)^2 >= 0.
+* f cubic: p >= 0 on [0, 1] if and only if p = s A(s) + (1 - s) B(s) with A, B
+  non-negative quadratics. Matching coefficients leaves two free numbers
+  a0, a2 >= 0: A = (a0, p(1) - a0 - a2, a2), B = (p0, p0 + p1 - a0, a2 - p3),
+  and each is non-negative when p0 >= 0, a2 - p3 >= 0, 4 a0 a2 >= (p(1) - a0 - a2)^2
+  and 4 p0 (a2 - p3) >= (p0 + p1 - a0)^2.
+* f of higher degree (the quintic's velocity and position): a cut, the
+  bound imposed at the extreme s_c the exact check found, p(s_c) >= 0 (no
+  extra variable). Cuts only ever relax the true constraint, so they never
+  make the NLP infeasible where the problem is not; each round adds cuts at
+  the extremes that moved, and the remaining violation shrinks with the square
+  of the move.
+
+Rounds. Certificates are added only where needed: a round solves, checks the
+trajectory with the project's exact kinematics (``segment_extrema``), and
+certifies every extreme inside a segment within 5 % of its bound; it stops
+when the exact check passes (to 1e-9 relative), nothing new is needed, IPOPT
+does not solve a round (its solution is then discarded), or after
+``MAX_ROUNDS``. The caller then applies the time-scaling lemma
+(``TimingProblem.evaluate``), which makes the result exactly feasible and
+tight; nothing is reported feasible that the exact check did not pass.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from math import factorial
+
+import numpy as np
+
+from ..kinematics import max_abs, segment_extrema
+from .formulations import FORMULATIONS, Scales, SegmentBlock
+from .problem import TimingProblem
+from .result import SearchTracker, StartReport
+
+MAX_ROUNDS = 12
+#: Extremes inside a segment beyond (1 - FLAG_MARGIN) of their bound get a certificate.
+FLAG_MARGIN = 0.05
+#: A cut closer than this (normalised time) to an extreme already covers it.
+CUT_SPACING = 1e-6
+#: Unbounded problems keep every duration above this fraction of the time scale.
+DURATION_FLOOR = 1e-6
+IPOPT_OPTIONS = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False, "ipopt.tol": 1e-10,
+                 "ipopt.constr_viol_tol": 1e-10, "ipopt.max_iter": 500}
+
+#: IPOPT statuses after which a round's solution is used.
+SOLVED = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+
+
+@dataclass(frozen=True)
+class Certificate:
+    """A bound on q^(order) of one joint inside one segment (module docstring).
+
+    Attributes:
+        block, row: the segment, as its block in the formulation and its row there.
+        joint, order: the joint and the derivative order (0 = position).
+        side: +1 for the upper bound, -1 for the lower.
+        degree: the degree of q^(order) on the segment.
+        centre: where a cut is (None for the exact kinds).
+    """
+
+    block: int
+    row: int
+    joint: int
+    order: int
+    side: int
+    degree: int
+    centre: float | None = None
+
+    @property
+    def kind(self) -> str:
+        """``quadratic`` (exact, one variable), ``cubic`` (exact, two) or ``cut`` (none)."""
+        return {2: "quadratic", 3: "cubic"}.get(self.degree, "cut")
+
+    @property
+    def place(self) -> tuple[int, int, int, int, int]:
+        """What it bounds: (block, row, joint, order, side)."""
+        return self.block, self.row, self.joint, self.order, self.side
+
+    def model(self) -> np.ndarray:
+        """(rows, degree + 1): the map from f's coefficients to those of the certified polynomial:
+        the identity for the exact kinds, evaluation at ``centre`` (one row) for a cut."""
+        if self.centre is None:
+            return np.eye(self.degree + 1)
+        return (self.centre ** np.arange(self.degree + 1))[None]
+
+
+def quadratic_certificate(p, lam) -> list:
+    """Rows (each >= 0) certifying p0 + p1 s + p2 s^2 >= 0 on [0, 1] with multiplier ``lam`` >= 0."""
+    return [p[0], p[2] + lam, 4 * p[0] * (p[2] + lam) - (p[1] - lam) ** 2]
+
+
+def cubic_certificate(p, a0, a2) -> list:
+    """Rows (each >= 0) certifying p0 + .. + p3 s^3 >= 0 on [0, 1] with free numbers ``a0``, ``a2`` >= 0."""
+    total = p[0] + p[1] + p[2] + p[3]
+    return [p[0], a2 - p[3], 4 * a0 * a2 - (total - a0 - a2) ** 2, 4 * p[0] * (a2 - p[3]) - (p[0] + p[1] - a0) ** 2]
+
+
+@dataclass(frozen=True)
+class NLPOutcome:
+    """What one NLP solve from one start returned (durations not yet repaired).
+
+    Attributes:
+        durations: (S,) durations [s] of the last round.
+        iterations: IPOPT iterations over all rounds.
+        rounds: solves made (one per round).
+        status: IPOPT's return status of the last round.
+        certificates: certificates in the last round.
+    """
+
+    durations: np.ndarray
+    iterations: int
+    rounds: int
+    status: str
+    certificates: int
+
+
+class TimingNLP:
+    """The sparse NLP of one ``TimingProblem``, solved from any start.
+
+    Args:
+        problem: the timing problem.
+        reference: (S,) feasible durations [s] that set the variable scales.
+    """
+
+    def __init__(self, problem: TimingProblem, reference: np.ndarray):
+        self.problem = problem
+        family = problem.family
+        reference = np.asarray(reference, dtype=float)
+        coefficients = family.batch_coefficients(problem.via_points, reference[None])
+        self.scales = Scales.of(problem.limits, reference, max_abs(coefficients, reference[None])[0])
+        self.formulation = FORMULATIONS[family.name](family, problem.via_points, problem.limits, self.scales)
+        self._base: _Program | None = None
+
+    @property
+    def blocks(self) -> list[SegmentBlock]:
+        """The formulation's segment blocks (of the program without certificates)."""
+        return self._program([]).spline.blocks
+
+    def solve(self, start: np.ndarray) -> NLPOutcome:
+        """Solve from durations ``start`` (S,) [s], adding certificates round by round."""
+        problem = self.problem
+        h = np.asarray(start, dtype=float)
+        coefficients = problem.family.batch_coefficients(problem.via_points, h[None])[0]
+        core = np.concatenate((h / self.scales.time, self.formulation.state_values(coefficients, h)))
+        certificates: list[Certificate] = []
+        iterations, status, rounds = 0, "not solved", 0
+        while rounds < MAX_ROUNDS:
+            rounds += 1
+            program = self._program(certificates)
+            extra = self._certificate_start(certificates, coefficients, h)
+            solution = program.solver(x0=np.concatenate((core, extra)), lbx=program.lbx, ubx=program.ubx,
+                                      lbg=program.lbg, ubg=program.ubg)
+            stats = program.solver.stats()
+            iterations += int(stats.get("iter_count", 0))
+            status = str(stats.get("return_status", "unknown"))
+            x = np.asarray(solution["x"], dtype=float).ravel()
+            if (status not in SOLVED or not np.all(np.isfinite(x))
+                    or np.any(x[:problem.segment_count] <= 0)):
+                break  # keep the last solved round (or the start): more rounds would not help
+            core = x[:len(core)]
+            h = core[:problem.segment_count] * self.scales.time
+            coefficients = problem.family.batch_coefficients(problem.via_points, h[None])[0]
+            if problem.evaluate_durations(h[None]).feasible[0]:
+                break
+            certificates, changed = self._certify(certificates, coefficients, h)
+            if not changed:
+                break
+        return NLPOutcome(h, iterations, rounds, status, len(certificates))
+
+    # ------------------------------------------------------------------ certificates
+
+    def _bounds(self, order: int, joint: int) -> tuple[float, float]:
+        """(lower, upper) bound of derivative ``order`` of ``joint`` [SI]; +-inf where absent."""
+        limits = self.problem.limits
+        if order == 0:
+            return float(limits.lower[joint]), float(limits.upper[joint])
+        magnitude = float(limits.magnitudes[order - 1, joint])
+        return -magnitude, magnitude
+
+    def _certified_orders(self, block: SegmentBlock) -> list[int]:
+        """Orders of ``block`` that are limited and can peak inside a segment (degree >= 2)."""
+        limits = self.problem.limits
+        limited = [np.isfinite(limits.lower) | np.isfinite(limits.upper), *np.isfinite(limits.magnitudes)]
+        return [d for d in block.certified if block.degree - d >= 2 and limited[d].any()]
+
+    def _certify(self, certificates: list[Certificate], coefficients: np.ndarray,
+                 h: np.ndarray) -> tuple[list[Certificate], bool]:
+        """Certify every extreme inside a segment within FLAG_MARGIN of its bound or beyond.
+
+        Exact certificates are added once; a cut is added unless one within
+        ``CUT_SPACING`` covers the extreme. Returns the new list and whether it changed.
+        """
+        result = list(certificates)
+        changed = False
+        for b, block in enumerate(self.blocks):
+            orders = self._certified_orders(block)
+            if not orders:
+                continue
+            local = coefficients[None, block.segments, :, :block.degree + 1]
+            locations, values = segment_extrema(local, h[None, block.segments], orders)
+            for o, order in enumerate(orders):
+                s, f = locations[o, 0], values[o, 0]  # (K, J, C)
+                inside = (s > 1e-9) & (s < 1 - 1e-9)
+                for joint in range(self.problem.joint_count):
+                    low, high = self._bounds(order, joint)
+                    span = high - low if np.isfinite(high - low) else 1.0
+                    margin = FLAG_MARGIN * (span if order == 0 else high)
+                    for side, near in ((1, f[:, joint] > high - margin), (-1, f[:, joint] < low + margin)):
+                        for row, c in np.argwhere(near & inside[:, joint]):
+                            found = Certificate(b, int(row), joint, order, side, block.degree - order)
+                            changed |= _place(result, found, float(s[row, joint, c]))
+        return result, changed
+
+    def _certified_polynomials(self, certificates: list[Certificate], f: list) -> list:
+        """The certified polynomials p = side (bound - model(f)) / scale, coefficient by coefficient.
+
+        ``f`` holds the certified quantities' coefficients power by power, each a
+        vector over ``certificates`` (numpy arrays, or CasADi columns).
+        """
+        models = [c.model() for c in certificates]
+        rows = max(m.shape[0] for m in models)
+        weights = np.zeros((len(certificates), rows, len(f)))
+        for i, m in enumerate(models):
+            weights[i, :m.shape[0], :m.shape[1]] = m
+        side = np.array([c.side for c in certificates], dtype=float)
+        bound = np.array([self._bounds(c.order, c.joint)[c.side > 0] for c in certificates])
+        scale = np.array([1.0 if c.order == 0 else abs(b) for c, b in zip(certificates, bound)])
+        constant = _like(f[0], side * bound / scale)
+        factor = _like(f[0], side / scale)
+        p = []
+        for j in range(rows):
+            model = sum(_like(f[i], weights[:, j, i]) * f[i] for i in range(len(f)))
+            p.append((constant if j == 0 else 0) - factor * model)
+        return p
+
+    def _certificate_start(self, certificates: list[Certificate], coefficients: np.ndarray,
+                           h: np.ndarray) -> np.ndarray:
+        """Certificate variables at a spline: lambda = max(p1 + 2 p0, 0) for each quadratic
+        (a0 alike for each cubic, whose a2 starts at 0; cuts have none); IPOPT moves them."""
+        if not certificates:
+            return np.zeros(0)
+        f = np.zeros((max(c.degree for c in certificates) + 1, len(certificates)))
+        for i, c in enumerate(certificates):
+            block = self.blocks[c.block]
+            segment = block.segments[c.row]
+            powers = np.arange(block.degree + 1)
+            normalised = coefficients[segment, c.joint, :block.degree + 1] * h[segment] ** powers
+            falling = [factorial(k) / factorial(k - c.order) for k in range(c.order, block.degree + 1)]
+            f[:c.degree + 1, i] = normalised[c.order:] * falling / h[segment] ** c.order
+        values = []
+        for kind, chosen in _kinds(certificates):
+            if kind == "cut":
+                continue
+            p = np.array(self._certified_polynomials([certificates[i] for i in chosen], list(f[:, chosen])))
+            values.append(np.maximum(p[1] + 2 * p[0], 0.0))
+            if kind == "cubic":
+                values.append(np.zeros(len(chosen)))
+        return np.concatenate(values) if values else np.zeros(0)
+
+    # ------------------------------------------------------------------ building
+
+    def _program(self, certificates: list[Certificate]) -> "_Program":
+        """The NLP with these certificates (the one without any is built once and kept)."""
+        if certificates:
+            return _Program(self, certificates)
+        if self._base is None:
+            self._base = _Program(self, [])
+        return self._base
+
+
+def _place(certificates: list[Certificate], found: Certificate, location: float) -> bool:
+    """Add ``found`` for an extreme at ``location`` unless a certificate already covers it;
+    True if it was added."""
+    same = [c for c in certificates if c.place == found.place]
+    if found.kind == "cut":
+        found = replace(found, centre=location)
+        if any(abs(c.centre - location) <= CUT_SPACING for c in same):
+            return False
+    elif same:
+        return False
+    certificates.append(found)
+    return True
+
+
+_KINDS = ("quadratic", "cubic", "cut")
+
+
+def _kinds(certificates: list[Certificate]) -> list[tuple[str, np.ndarray]]:
+    """Indices of the certificates of each kind, in ``_KINDS`` order (the order of their variables)."""
+    kinds = np.array([c.kind for c in certificates])
+    return [(kind, np.flatnonzero(kinds == kind)) for kind in _KINDS if np.any(kinds == kind)]
+
+
+def _like(example, values: np.ndarray):
+    """Constant ``values`` in the type of ``example``: as is beside numpy, as a column beside CasADi."""
+    if isinstance(example, np.ndarray):
+        return values
+    import casadi as ca
+    return ca.DM(values)
+
+
+class _Program:
+    """One CasADi/IPOPT program: variables, constraints and their bounds."""
+
+    def __init__(self, nlp: TimingNLP, certificates: list[Certificate]):
+        import casadi as ca
+
+        problem, scales = nlp.problem, nlp.scales
+        segments = problem.segment_count
+        eta = ca.MX.sym("durations", segments)
+        h = eta * scales.time
+        spline = nlp.formulation.build(h)
+        self.spline = spline
+        count = spline.equalities.shape[0]
+        rows, lower, upper = [spline.equalities], [np.zeros(count)], [np.zeros(count)]
+        for expression, low, high in spline.constraints:
+            rows.append(expression)
+            lower.append(np.full(expression.shape[0], low))
+            upper.append(np.full(expression.shape[0], high))
+        extra = []
+        if certificates:
+            f = _certified_quantities(ca, certificates, spline.blocks, h)
+            for kind, chosen in _kinds(certificates):
+                p = nlp._certified_polynomials([certificates[i] for i in chosen], [_pick(ca, fk, chosen) for fk in f])
+                variables = ca.MX.sym("certificate", {"quadratic": 1, "cubic": 2, "cut": 0}[kind] * len(chosen))
+                extra.append(variables)
+                if kind == "cubic":
+                    certified = cubic_certificate(p, variables[:len(chosen)], variables[len(chosen):])
+                elif kind == "quadratic":
+                    certified = quadratic_certificate(p, variables)
+                else:
+                    certified = p[:1]
+                rows += certified
+                lower += [np.zeros(len(chosen))] * len(certified)
+                upper += [np.full(len(chosen), np.inf)] * len(certified)
+        extra = ca.vertcat(*extra) if extra else ca.MX.zeros(0, 1)
+        objective = ca.sum1(h)
+        if problem.uses_jerk_energy:
+            k_t, k_j = problem.weights
+            objective = objective + (k_j / k_t) * _jerk_energy(ca, spline.blocks, h)
+        if problem.bounds is not None:
+            h_low, h_high = np.array(problem.bounds) / scales.time
+        else:
+            h_low, h_high = DURATION_FLOOR, np.inf
+        size = extra.shape[0]
+        self.lbx = np.concatenate((np.full(segments, h_low), spline.lower, np.zeros(size)))
+        self.ubx = np.concatenate((np.full(segments, h_high), spline.upper, np.full(size, np.inf)))
+        self.lbg, self.ubg = np.concatenate(lower), np.concatenate(upper)
+        variables = ca.vertcat(eta, spline.states, extra)
+        self.solver = ca.nlpsol("timing", "ipopt", {"x": variables, "f": objective / scales.time,
+                                                    "g": ca.vertcat(*rows)}, IPOPT_OPTIONS)
+
+
+def _certified_quantities(ca, certificates: list[Certificate], blocks: list[SegmentBlock], h) -> list:
+    """Coefficients of f(s) = q^(order)(s h) = h^-order P^(order)(s) of every certificate, power by power."""
+    f = [ca.MX.zeros(len(certificates), 1) for _ in range(max(c.degree for c in certificates) + 1)]
+    for b, order in sorted({(c.block, c.order) for c in certificates}):
+        chosen = [i for i, c in enumerate(certificates) if (c.block, c.order) == (b, order)]
+        block = blocks[b]
+        rows = np.array([certificates[i].row for i in chosen])
+        joints = np.array([certificates[i].joint for i in chosen])
+        flat = rows + len(block.segments) * joints
+        inverse = 1.0 / _pick(ca, h, block.segments[rows]) ** order
+        spread = np.zeros((len(certificates), len(chosen)))
+        spread[chosen, np.arange(len(chosen))] = 1.0
+        for power in range(block.degree - order + 1):
+            falling = factorial(power + order) / factorial(power)
+            term = falling * _pick(ca, ca.vec(block.coefficients[power + order]), flat) * inverse
+            f[power] = f[power] + ca.mtimes(ca.DM(spread), term)
+    return f
+
+
+def _pick(ca, column, indices):
+    """Entries ``indices`` of a CasADi column, as a column (indexing a 1 x 1 one would give a row)."""
+    indices = np.asarray(indices, dtype=int)
+    return ca.reshape(column[indices.tolist()], len(indices), 1)
+
+
+def _jerk_energy(ca, blocks: list[SegmentBlock], h):
+    """Sum over segments and joints of the jerk energy, h^-5 times the integral of P'''(s)^2 over [0, 1]."""
+    total = 0
+    for block in blocks:
+        if block.degree < 3:
+            continue
+        jerk = [block.coefficients[i] * (factorial(i) / factorial(i - 3)) for i in range(3, block.degree + 1)]
+        duration = ca.repmat(h[block.segments.tolist()], 1, jerk[0].shape[1])
+        integral = sum(jerk[i] * jerk[k] / (i + k + 1) for i in range(len(jerk)) for k in range(len(jerk)))
+        total = total + ca.sum1(ca.sum2(integral / duration ** 5))
+    return total
+
+
+def nlp_refine(problem: TimingProblem, starts: dict[str, np.ndarray], tracker: SearchTracker) -> None:
+    """Solve the sparse NLP from each named start (S,) [s] and offer the repaired results.
+
+    Every start is first repaired (``TimingProblem.evaluate``: feasible and
+    tight), so the tracker holds a feasible candidate even if a solve fails.
+    One ``TimingNLP``, scaled by the first start, serves them all; a
+    ``StartReport`` per start goes to ``tracker.starts``.
+    """
+    labels = list(starts)
+    repaired = tracker.evaluate(np.array([starts[label] for label in labels]))
+    nlp = TimingNLP(problem, repaired.durations[int(np.argmin(repaired.objective))])
+    for label, start in zip(labels, repaired.durations):
+        outcome = nlp.solve(start)
+        result = tracker.evaluate(outcome.durations[None])
+        tracker.starts.append(StartReport(label, float(result.objective[0]), bool(result.feasible[0]),
+                                          outcome.iterations, outcome.rounds, outcome.status,
+                                          outcome.certificates))

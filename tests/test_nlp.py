@@ -1,0 +1,222 @@
+"""The sparse timing NLP (timing/nlp.py, timing/formulations.py, timing/starts.py)."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from planner import JointLimits, get_family, kinematic_figures, paper
+from planner.timing import TimingProblem, optimize
+from planner.timing.formulations import FORMULATIONS, HYBRID_END, HYBRID_END_JERK, Scales
+from planner.timing.nlp import TimingNLP, cubic_certificate, quadratic_certificate
+from planner.timing.starts import chord_segments, start_shapes
+
+FAMILIES = ("cubic", "hybrid", "quintic")
+
+
+def relative_gap(value: float, reference: float) -> float:
+    return abs(value - reference) / reference
+
+
+# ------------------------------------------------------------------ agreement with independent optima
+
+@pytest.mark.parametrize("family", ["cubic", "hybrid"])
+def test_paper_case_agrees_with_slsqp_multistart(paper_via, paper_limits, family):
+    problem = TimingProblem(paper_via, family, paper_limits)
+    nlp = optimize(problem, "nlp")
+    slsqp = optimize(problem, "slsqp", starts=2, iterations=100)
+    assert nlp.feasible and slsqp.feasible and nlp.starts_agree
+    assert relative_gap(nlp.total_time, slsqp.total_time) < 1e-4
+    assert nlp.max_ratio == pytest.approx(1.0, abs=1e-9)
+
+
+def test_paper_case_reference_numbers(paper_via, paper_limits):
+    free = optimize(TimingProblem(paper_via, "hybrid", paper_limits), "nlp")
+    bounded = optimize(TimingProblem(paper_via, "hybrid", paper_limits, bounds=paper.BOUNDS_S), "nlp")
+    assert round(free.total_time, 4) <= 17.3128 and bounded.total_time == pytest.approx(27.0, abs=1e-9)
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+@pytest.mark.parametrize("family", FAMILIES)
+def test_small_random_cases_agree_with_slsqp_multistart(family, seed):
+    rng = np.random.default_rng(seed)
+    via = rng.uniform(-2.0, 2.0, (4, 2))
+    limits = JointLimits.create(2, velocity=rng.uniform(0.5, 2, 2), acceleration=rng.uniform(0.5, 3, 2),
+                                jerk=rng.uniform(1, 10, 2))
+    problem = TimingProblem(via, family, limits)
+    nlp = optimize(problem, "nlp")
+    slsqp = optimize(problem, "slsqp", starts=3, iterations=100, seed=seed)
+    assert nlp.feasible and slsqp.feasible
+    # The NLP is never worse than SLSQP beyond the agreement tolerance.
+    assert nlp.total_time <= slsqp.total_time * (1 + 1e-4)
+    assert relative_gap(nlp.total_time, slsqp.total_time) < 1e-4
+
+
+@given(st.floats(0.1, 3.0), st.floats(0.1, 5.0), st.floats(0.1, 5.0), st.floats(0.1, 5.0))
+@settings(max_examples=10)
+def test_single_quintic_analytic_optimum(distance, velocity, acceleration, jerk):
+    """Rest-to-rest quintic: max|v| = 15 D / 8h, max|a| = 10 D / (sqrt(3) h^2), max|j| = 60 D / h^3."""
+    limits = JointLimits.create(1, velocity=[velocity], acceleration=[acceleration], jerk=[jerk])
+    result = optimize(TimingProblem([[0.0], [distance]], "quintic", limits), "nlp")
+    expected = max(15 * distance / (8 * velocity), np.sqrt(10 * distance / (np.sqrt(3) * acceleration)),
+                   np.cbrt(60 * distance / jerk))
+    assert result.total_time == pytest.approx(expected, rel=1e-9)
+
+
+def test_time_jerk_analytic_optimum():
+    """Quintic, no limits: f(h) = K_t h + K_j 720 D^2 / h^5, minimal at h = (3600 K_j D^2 / K_t)^(1/6)."""
+    distance, k_t, k_j = 0.8, 2.0, 0.5
+    problem = TimingProblem([[0.0], [distance]], "quintic", JointLimits.create(1), bounds=(0.1, 100.0),
+                            objective="time-jerk", weights=(k_t, k_j))
+    result = optimize(problem, "nlp")
+    expected = (3600 * k_j * distance ** 2 / k_t) ** (1 / 6)
+    assert result.total_time == pytest.approx(expected, rel=1e-6)
+
+
+@pytest.mark.parametrize("family", ["cubic", "hybrid"])
+def test_time_jerk_nlp_beats_or_matches_cuckoo(paper_via, paper_limits, family):
+    problem = TimingProblem(paper_via, family, paper_limits, objective="time-jerk", weights=(1.0, 0.01))
+    nlp = optimize(problem, "nlp")
+    explored = optimize(problem, "cuckoo", iterations=30, polish=False)
+    assert nlp.feasible and nlp.objective <= explored.objective * (1 + 1e-9)
+
+
+# ------------------------------------------------------------------ exactness and tightness on random problems
+
+@st.composite
+def random_problems(draw):
+    family = draw(st.sampled_from(FAMILIES))
+    n = draw(st.integers(2, 6))
+    joints = draw(st.integers(1, 3))
+    rng = np.random.default_rng(draw(st.integers(0, 2 ** 32 - 1)))
+    via = rng.uniform(-2.0, 2.0, (n, joints))
+    present = rng.random((3, joints)) < 0.8
+    present[:, 0] |= ~present.any(axis=0)[0]  # at least one limit on joint 1
+    magnitudes = np.where(present, rng.uniform(0.3, 5.0, (3, joints)), np.inf)
+    limits = JointLimits.create(joints, velocity=magnitudes[0], acceleration=magnitudes[1], jerk=magnitudes[2])
+    bounds = None
+    if draw(st.booleans()):
+        low = float(rng.uniform(0.05, 1.0))
+        bounds = (low, low * float(rng.uniform(1.5, 20.0)))
+    try:
+        return TimingProblem(via, family, limits, bounds=bounds)
+    except Exception:  # noqa: BLE001 - an infeasible h_max is a valid draw; retry another
+        return TimingProblem(via, family, limits)
+
+
+@given(random_problems())
+@settings(max_examples=25)
+def test_result_is_exactly_feasible_and_tight(problem):
+    result = optimize(problem, "nlp")
+    assert result.feasible
+    assert kinematic_figures(problem.trajectory(result.durations)).violations(problem.limits) == []
+    assert not problem.evaluate_durations(0.999 * result.durations).feasible[0]
+
+
+def test_position_range_is_respected(paper_via, paper_limits):
+    margin = np.deg2rad(5.0)
+    limits = paper_limits.with_overrides(lower=paper_via.min(axis=0) - margin, upper=paper_via.max(axis=0) + margin)
+    for family in ("cubic", "hybrid"):
+        problem = TimingProblem(paper_via, family, limits)
+        result = optimize(problem, "nlp")
+        assert result.feasible and result.starts_agree
+        assert kinematic_figures(problem.trajectory(result.durations)).violations(limits) == []
+        assert any(s.certificates > 0 for s in result.starts)
+
+
+# ------------------------------------------------------------------ degenerate via-points
+
+@pytest.mark.parametrize("family", FAMILIES)
+def test_repeated_via_points_are_passed_once(paper_via, paper_limits, family):
+    repeated = np.vstack((paper_via[:3], paper_via[2], paper_via[2:], paper_via[-1]))
+    problem = TimingProblem(repeated, family, paper_limits)
+    merged = optimize(TimingProblem(paper_via, family, paper_limits), "nlp")
+    result = optimize(problem, "nlp")
+    assert result.feasible and result.total_time == pytest.approx(merged.total_time, rel=1e-9)
+    trajectory = problem.trajectory(result.durations)
+    assert len(trajectory.via_times) == len(repeated)
+    np.testing.assert_allclose(trajectory.evaluate(trajectory.via_times), repeated, atol=1e-9)
+    assert trajectory.via_times[2] == trajectory.via_times[3]
+
+
+def test_joints_without_motion_get_a_valid_trajectory(paper_via, paper_limits):
+    via = paper_via.copy()
+    via[:, 1] = via[0, 1]   # joint 2 never moves
+    via[3:5, 4] = via[2, 4]  # joint 5 rests over two chords
+    problem = TimingProblem(via, "hybrid", paper_limits)
+    result = optimize(problem)
+    trajectory = problem.trajectory(result.durations)
+    assert result.feasible
+    np.testing.assert_allclose(trajectory.evaluate(trajectory.via_times), via, atol=1e-9)
+    assert np.abs(trajectory.coefficients[:, 1, 1:]).max() < 1e-9
+
+
+def test_all_equal_via_points_is_an_error(paper_limits):
+    from planner import InputError
+    with pytest.raises(InputError, match="all 3 via-points are the same joint position"):
+        TimingProblem(np.zeros((3, 6)), "hybrid", paper_limits)
+
+
+# ------------------------------------------------------------------ building blocks
+
+@pytest.mark.parametrize("family", FAMILIES)
+def test_symbolic_formulation_matches_the_numeric_spline(family):
+    """At a built spline's own knot states, the equalities vanish and the blocks' coefficients are it."""
+    import casadi as ca
+    rng = np.random.default_rng(4)
+    via = rng.uniform(-2, 2, (5, 3))
+    limits = JointLimits.create(3, velocity=[1, 2, 3], acceleration=[2, 3, 4], jerk=[5, 6, 7])
+    spline_family = get_family(family)
+    h = rng.uniform(0.3, 2.0, spline_family.segment_count(5))
+    coefficients = spline_family.batch_coefficients(via, h[None])[0]
+    formulation = FORMULATIONS[family](spline_family, via, limits,
+                                       Scales.of(limits, h, np.ones((3, 3))))
+    symbol = ca.MX.sym("h", len(h))
+    spline = formulation.build(symbol)
+    outputs = [spline.equalities] + [c for block in spline.blocks for c in block.coefficients]
+    values = ca.Function("f", [symbol, spline.states], outputs)(h, formulation.state_values(coefficients, h))
+    assert np.abs(np.asarray(values[0])).max() < 1e-9
+    index = 1
+    for block in spline.blocks:
+        for power in range(block.degree + 1):
+            expected = coefficients[block.segments, :, power] * h[block.segments, None] ** power
+            np.testing.assert_allclose(np.asarray(values[index]), expected, atol=1e-9)
+            index += 1
+
+
+def test_hybrid_end_jerk_constant():
+    """HYBRID_END_JERK is max |P'''| over [0, 1], checked on a fine grid from below."""
+    jerk = np.polynomial.Polynomial(HYBRID_END).deriv(3)
+    grid = jerk(np.linspace(0, 1, 100001))
+    assert np.abs(grid).max() <= HYBRID_END_JERK <= np.abs(grid).max() + 1e-8
+
+
+@given(st.lists(st.floats(-2, 2), min_size=4, max_size=4), st.floats(0, 3), st.floats(0, 3), st.floats(0, 3))
+@settings(max_examples=200)
+def test_certificates_are_sound(p, a0, a2, lam):
+    """Rows all >= 0 imply the polynomial is >= 0 on [0, 1] (checked at its critical points)."""
+    polynomial = np.polynomial.Polynomial(p)
+    critical = polynomial.deriv().roots()
+    points = np.concatenate(([0.0, 1.0], critical[(abs(critical.imag) < 1e-12)].real.clip(0, 1)))
+    if min(cubic_certificate(p, a0, a2)) >= 0:
+        assert polynomial(points).min() >= -1e-9
+    quadratic = np.polynomial.Polynomial(p[:3])
+    if min(quadratic_certificate(p[:3], lam)) >= 0:
+        assert quadratic(np.linspace(0, 1, 1001)).min() >= -1e-9
+
+
+def test_start_shapes_cover_every_chord(paper_via, paper_limits):
+    for family in FAMILIES:
+        problem = TimingProblem(paper_via, family, paper_limits)
+        chords = chord_segments(problem)
+        assert chords[0] == 0 and chords[-1] == len(paper_via) - 2 and np.all(np.diff(chords) >= 0)
+        for shape in start_shapes(problem).values():
+            assert shape.shape == (problem.segment_count,) and np.all(shape > 0)
+
+
+def test_solver_reports_its_rounds(paper_via, paper_limits):
+    problem = TimingProblem(paper_via, "hybrid", paper_limits)
+    start = problem.evaluate(np.ones((1, problem.segment_count))).durations[0]
+    outcome = TimingNLP(problem, start).solve(start)
+    assert outcome.rounds >= 1 and outcome.iterations > 0 and outcome.status == "Solve_Succeeded"
+    assert outcome.durations.sum() < start.sum()
