@@ -25,3 +25,4 @@ bench: $(STAMP)
 	$(BIN)/python scripts/bench_ik.py
 	$(BIN)/python scripts/bench_plan.py
 	$(BIN)/python scripts/bench_scale.py
+	$(BIN)/python scripts/bench_cartesian.py

@@ -110,3 +110,21 @@ def time_scale_factor(ratios: np.ndarray) -> np.ndarray:
     """
     roots = np.stack((ratios[..., 0, :], np.sqrt(ratios[..., 1, :]), np.cbrt(ratios[..., 2, :])))
     return roots.max(axis=(0, -1))
+
+
+def rest_to_rest_time(distance: np.ndarray, limits: JointLimits) -> np.ndarray:
+    """(..., J) a lower bound on the time [s] to move each joint by ``distance`` [rad] from rest to rest.
+
+    Under one limit alone the shortest motion takes D / V (velocity), 2 sqrt(D / A)
+    (bang-bang acceleration) or (32 D / Jk)^(1/3) (bang-bang jerk); the largest of the
+    three is a lower bound under all of them. Absent limits contribute nothing.
+
+    Args:
+        distance: (..., J) non-negative joint displacements [rad].
+        limits: the joints' limits.
+    """
+    distance = np.asarray(distance, dtype=float)
+    velocity = distance / limits.velocity
+    acceleration = 2.0 * np.sqrt(distance / limits.acceleration)
+    jerk = np.cbrt(32.0 * distance / limits.jerk)
+    return np.maximum.reduce([velocity, acceleration, jerk])

@@ -11,7 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InfeasibleError, RobotError, TaskError
+from .cartesian_path import StraightPath, follow_straight_lines, tool_deviation
+from .errors import IKError, InfeasibleError, RobotError, TaskError
 from .ik import IKSolution, pose_from_position_quaternion, solve_waypoints
 from .export import (atomic_output_folder, coefficients_document, write_json, write_trajectory_csv)
 from .kinematics import KinematicFigures, kinematic_figures
@@ -40,7 +41,9 @@ class PlanResult:
         figures: its exact kinematic figures.
         timings_s: wall time of each stage [s].
         robot: the robot, for robot tasks.
-        ik: one IK solution per Cartesian waypoint (residuals and joint-space jumps).
+        ik: one IK solution per Cartesian waypoint (residuals, branches, joint-space jumps).
+        path: for Cartesian tasks, how the tool follows the straight segments between
+            waypoints (``linear`` mode) or strays from them (``joint`` mode).
     """
 
     task: Task
@@ -52,6 +55,13 @@ class PlanResult:
     timings_s: dict[str, float] = field(default_factory=dict)
     robot: Robot | None = None
     ik: list[IKSolution] | None = None
+    path: StraightPath | None = None
+    branch_times: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def waypoint_via(self) -> np.ndarray:
+        """(n,) index of each user waypoint among the via-points (inserted poses are not waypoints)."""
+        return self.path.waypoint_via if self.path is not None else np.arange(len(self.via_points))
 
     @property
     def joint_names(self) -> list[str]:
@@ -103,9 +113,20 @@ class PlanResult:
         summary = {"robot": {"name": self.robot.name, "urdf": str(self.robot.urdf_path),
                              "tool_frame": self.robot.tool_frame}}
         if self.ik is not None:
-            summary["ik"] = [{"waypoint": i, "position_error_m": s.position_error,
-                              "orientation_error_rad": s.orientation_error, "attempts": s.attempts,
-                              "joint_jump_deg": np.rad2deg(s.jump)} for i, s in enumerate(self.ik)]
+            summary["ik"] = {"branch": self.task.ik.branch, "timed_sequences_s": self.branch_times, "waypoints": [
+                {"waypoint": i, "position_error_m": s.position_error, "orientation_error_rad": s.orientation_error,
+                 "attempts": s.attempts, "solutions": s.solutions, "chosen_solution": s.chosen,
+                 "joint_jump_deg": np.rad2deg(s.jump)} for i, s in enumerate(self.ik)]}
+        if self.path is not None:
+            options = self.task.path
+            summary["path"] = {
+                "mode": options.mode, "tolerance_m": options.tolerance_m,
+                "tolerance_deg": np.rad2deg(options.tolerance_rad), "rounds": self.path.rounds,
+                "waypoint_via_index": self.path.waypoint_via,
+                "segments": [{"from_waypoint": i, "to_waypoint": i + 1, "inserted_poses": int(inserted),
+                              "max_position_deviation_m": distance, "max_orientation_deviation_deg": np.rad2deg(angle)}
+                             for i, (inserted, distance, angle) in enumerate(zip(
+                                 self.path.inserted, self.path.max_distance_m, self.path.max_angle_rad))]}
         return summary
 
     def save(self, out_dir) -> Path:
@@ -152,16 +173,28 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
     if not isinstance(task, Task):
         task = load_task(task)
     progress = progress or TerminalProgress("", quiet=True)
-    robot, ik = None, None
+    robot, ik, alternative = None, None, None
     if task.robot is not None:
         robot = load_robot(task.robot.urdf, task.robot.name, task.robot.tool_frame)
         limits = robot_limits(robot, task)
     timings["setup"] = time.perf_counter() - start
 
     start = time.perf_counter()
+    poses = None
     if task.cartesian_waypoints is not None:
+        if task.ik.start is not None and len(task.ik.start) != robot.dof:
+            raise TaskError("ik.start_deg", f"must have {robot.dof} values for robot {robot.name!r}, "
+                                            f"got {len(task.ik.start)}")
         poses = [pose_from_position_quaternion(w.position, w.quaternion_xyzw) for w in task.cartesian_waypoints]
-        ik = solve_waypoints(robot, poses, hints=[w.hint for w in task.cartesian_waypoints])
+        hints = [w.hint for w in task.cartesian_waypoints]
+        ik = solve_waypoints(robot, poses, hints=hints, start=task.ik.start, branch=task.ik.branch, limits=limits,
+                             seed=task.ik.seed)
+        if task.ik.branch == "optimal":  # the timing below keeps the faster of the two rules' sequences
+            try:
+                alternative = solve_waypoints(robot, poses, hints=hints, start=task.ik.start, branch="continuous",
+                                              limits=limits, seed=task.ik.seed)
+            except IKError:
+                alternative = None
         via = np.array([solution.q for solution in ik])
         timings["ik"] = time.perf_counter() - start
     else:
@@ -173,15 +206,38 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
 
     start = time.perf_counter()
     settings = task.optimizer
-    problem = TimingProblem(via, task.family, limits, bounds=settings["bounds"], objective=settings["objective"],
-                            weights=settings["weights"])
     progress.label = f"optimizing ({settings['algorithm']})"
-    result = optimize(problem, settings["algorithm"], seed=settings["seed"], progress=progress,
-                      **settings["settings"])
+
+    def time_via_points(points: np.ndarray) -> tuple[PiecewisePolynomial, tuple[TimingProblem, OptimizationResult]]:
+        problem = TimingProblem(points, task.family, limits, bounds=settings["bounds"],
+                                objective=settings["objective"], weights=settings["weights"])
+        result = optimize(problem, settings["algorithm"], seed=settings["seed"], progress=progress,
+                          **settings["settings"])
+        if not result.feasible:
+            raise InfeasibleError(f"no feasible timing found by {result.algorithm}: largest constraint ratio "
+                                  f"{result.max_ratio:.6g} (limit 1)")
+        return problem.trajectory(result.durations), (problem, result)
+
+    branch_times = {}
+    if alternative is not None:
+        other = np.array([solution.q for solution in alternative])
+        if not np.allclose(other, via, rtol=0, atol=1e-9):
+            branch_times = {"optimal": time_via_points(via)[0].total_time,
+                            "continuous": time_via_points(other)[0].total_time}
+            if branch_times["continuous"] < branch_times["optimal"]:
+                ik, via = alternative, other
+    path = None
+    if poses is not None and task.path.mode == "linear":
+        path, (problem, result) = follow_straight_lines(robot, poses, via, time_via_points, task.path.tolerance_m,
+                                                        task.path.tolerance_rad)
+        via = path.via_points
+        trajectory = problem.trajectory(result.durations)
+    else:
+        trajectory, (problem, result) = time_via_points(via)
+        if poses is not None:
+            waypoints = np.arange(len(poses))
+            *_, distance, angle = tool_deviation(robot, trajectory, poses, waypoints)
+            path = StraightPath(via, waypoints, np.zeros(len(poses) - 1, dtype=int), distance, angle, 1)
     timings["optimization"] = time.perf_counter() - start
-    if not result.feasible:
-        raise InfeasibleError(f"no feasible timing found by {result.algorithm}: largest constraint ratio "
-                              f"{result.max_ratio:.6g} (limit 1)")
-    trajectory = problem.trajectory(result.durations)
     figures = kinematic_figures(trajectory)
-    return PlanResult(task, via, limits, result, trajectory, figures, timings, robot, ik)
+    return PlanResult(task, via, limits, result, trajectory, figures, timings, robot, ik, path, branch_times)

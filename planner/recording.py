@@ -5,8 +5,10 @@ What a recording holds (timeline ``time``, in seconds):
 * ``robot/...``: the robot from its URDF through Rerun's own URDF support
   (``rerun.urdf.UrdfTree``), its joints animated by per-joint transforms;
   joints the planner locked are logged once at their neutral value.
-* ``scene/tool_path`` (the tool frame's path, a 3D line) and
-  ``scene/waypoints`` (the Cartesian waypoints as RGB axes), in the robot's root frame.
+* ``scene/tool_path`` (the tool frame's path, a 3D line),
+  ``scene/waypoints`` (the task's waypoints as RGB axes), and for Cartesian
+  tasks ``scene/straight_segments`` (the straight lines between waypoints) and
+  ``scene/inserted_poses`` (poses ``linear`` mode inserted), in the robot's root frame.
 * ``profiles/{position,velocity,acceleration,jerk}/<joint>``: time series in
   degrees, with ``.../limits/<joint>/{upper,lower}`` and, for positions,
   via-point markers ``profiles/position/via_points/<joint>``.
@@ -117,12 +119,21 @@ def _log_robot(rec, result, times: np.ndarray, positions: np.ndarray) -> None:
     tool = np.array([robot.forward_kinematics(q).translation for q in positions])
     rec.log("scene/tool_path", rr.LineStrips3D([tool], colors=[[255, 170, 0]], radii=0.003),
             rr.CoordinateFrame(root), static=True)
-    poses = [robot.forward_kinematics(q) for q in result.via_points]
+    waypoints = result.waypoint_via
+    poses = [robot.forward_kinematics(q) for q in result.via_points[waypoints]]
     origins = np.repeat([p.translation for p in poses], 3, axis=0)
     vectors = np.concatenate([0.06 * p.rotation.T for p in poses])
     rec.log("scene/waypoints", rr.Arrows3D(origins=origins, vectors=vectors,
                                            colors=[[230, 40, 40], [40, 200, 40], [40, 90, 230]] * len(poses)),
             rr.CoordinateFrame(root), static=True)
+    if result.path is not None:
+        rec.log("scene/straight_segments", rr.LineStrips3D([[p.translation for p in poses]], colors=[[150, 150, 150]],
+                                                           radii=0.0015), rr.CoordinateFrame(root), static=True)
+        inserted = np.setdiff1d(np.arange(len(result.via_points)), waypoints)
+        if inserted.size:
+            points = [robot.forward_kinematics(q).translation for q in result.via_points[inserted]]
+            rec.log("scene/inserted_poses", rr.Points3D(points, colors=[[120, 120, 255]], radii=0.004),
+                    rr.CoordinateFrame(root), static=True)
 
 
 # ---------------------------------------------------------------------------- reading back

@@ -14,6 +14,8 @@ Schema (version 1)::
       acceleration_deg_s2: [...]
       jerk_deg_s3: [...]
       position_deg: [[lower, upper], ...]
+    ik: {branch: optimal, start_deg: [...], seed: 0}       # cartesian only; branch: optimal | continuous
+    path: {mode: joint, tolerance_m: 0.001, tolerance_deg: 0.5}   # cartesian only; mode: joint | linear
     trajectory: {family: hybrid, sample_rate_hz: 100}
     optimizer: {algorithm: default, seed: 0, bounds_s: [h_min, h_max], objective: time,
                 weights: [K_t, K_j], ...algorithm settings (nests, iterations, pa, ...)}
@@ -33,12 +35,14 @@ import numpy as np
 import yaml
 
 from .errors import TaskError
+from .ik import BRANCH_RULES
 from .splines import FAMILIES
 from .timing import OPTIMIZERS, cuckoo_search
 from .timing.problem import OBJECTIVES
 
 SCHEMA_VERSION = 1
-_TOP_KEYS = ("version", "name", "robot", "waypoints", "limits", "trajectory", "optimizer")
+_TOP_KEYS = ("version", "name", "robot", "waypoints", "limits", "ik", "path", "trajectory", "optimizer")
+PATH_MODES = ("joint", "linear")
 _LIMIT_KEYS = {"velocity_deg_s": "velocity", "acceleration_deg_s2": "acceleration", "jerk_deg_s3": "jerk"}
 _LIMIT_KEY_OF = {**{name: key for key, name in _LIMIT_KEYS.items()}, "lower": "position_deg", "upper": "position_deg"}
 _COMMON_OPTIMIZER_KEYS = ("algorithm", "seed", "bounds_s", "objective", "weights")
@@ -51,6 +55,37 @@ class CartesianWaypoint:
     position: np.ndarray
     quaternion_xyzw: np.ndarray
     hint: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class IKOptions:
+    """How IK picks a solution per waypoint (``ik.solve_waypoints``).
+
+    Attributes:
+        branch: ``optimal`` (dynamic programming over the sequence) or ``continuous``.
+        start: the robot's configuration before the task [rad], or None.
+        seed: seed of the random IK starts.
+    """
+
+    branch: str = "optimal"
+    start: np.ndarray | None = None
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class PathOptions:
+    """How the tool moves between Cartesian waypoints (``cartesian_path.py``).
+
+    Attributes:
+        mode: ``joint`` (the joint-space spline, the tool path follows) or ``linear``
+            (straight lines, orientation by slerp, within the tolerances).
+        tolerance_m: largest distance of the tool from the straight segment [m].
+        tolerance_rad: largest angle of the tool from the slerp arc [rad].
+    """
+
+    mode: str = "joint"
+    tolerance_m: float = 1e-3
+    tolerance_rad: float = float(np.deg2rad(0.5))
 
 
 @dataclass(frozen=True)
@@ -87,6 +122,8 @@ class Task:
                                                      "objective": "time", "weights": (1.0, 1.0),
                                                      "settings": {}})
     source: Path | None = None
+    ik: IKOptions = field(default_factory=IKOptions)
+    path: PathOptions = field(default_factory=PathOptions)
 
 
 # ---------------------------------------------------------------------------- primitives
@@ -212,6 +249,29 @@ def _robot(value, path: str, base: Path | None) -> RobotSpec:
     raise TaskError(f"{path}.urdf", f"file not found: {urdf}")
 
 
+def _ik(value, path: str) -> IKOptions:
+    section = _mapping(value, path, ("branch", "start_deg", "seed"))
+    branch = section.get("branch", "optimal")
+    if branch not in BRANCH_RULES:
+        raise TaskError(f"{path}.branch", f"unknown branch rule {branch!r}; known: {', '.join(BRANCH_RULES)}")
+    start = np.deg2rad(_vector(section["start_deg"], f"{path}.start_deg")) if "start_deg" in section else None
+    seed = _number(section["seed"], f"{path}.seed", integer=True) if "seed" in section else 0
+    return IKOptions(branch, start, seed)
+
+
+def _path(value, path: str) -> PathOptions:
+    section = _mapping(value, path, ("mode", "tolerance_m", "tolerance_deg"))
+    mode = section.get("mode", "joint")
+    if mode not in PATH_MODES:
+        raise TaskError(f"{path}.mode", f"unknown path mode {mode!r}; known: {', '.join(PATH_MODES)}")
+    default = PathOptions()
+    tolerance_m = _number(section["tolerance_m"], f"{path}.tolerance_m", positive=True) \
+        if "tolerance_m" in section else default.tolerance_m
+    tolerance_rad = np.deg2rad(_number(section["tolerance_deg"], f"{path}.tolerance_deg", positive=True)) \
+        if "tolerance_deg" in section else default.tolerance_rad
+    return PathOptions(mode, tolerance_m, float(tolerance_rad))
+
+
 def _optimizer_parameters(algorithm: str) -> dict[str, str]:
     """Keyword settings of ``algorithm`` and their kinds (bool, int, float), read from its signature."""
     function = cuckoo_search if algorithm in ("default", "cuckoo-paper") else OPTIMIZERS[algorithm]
@@ -293,6 +353,11 @@ def parse_task(data, *, name: str = "task", source: Path | None = None) -> Task:
     joints, cartesian = _waypoints(document["waypoints"], "waypoints")
     if cartesian is not None and robot is None:
         raise TaskError("robot", "is required for cartesian waypoints")
+    for key in ("ik", "path"):
+        if key in document and cartesian is None:
+            raise TaskError(key, "applies to cartesian waypoints only")
+    ik = _ik(document["ik"], "ik") if "ik" in document else IKOptions()
+    path = _path(document["path"], "path") if "path" in document else PathOptions()
     limits = _limits(document["limits"], "limits") if "limits" in document else {}
     if robot is None and not any(k in limits for k in ("velocity", "acceleration", "jerk")):
         raise TaskError("limits", "a joint-space task without a robot needs velocity_deg_s, "
@@ -302,7 +367,7 @@ def parse_task(data, *, name: str = "task", source: Path | None = None) -> Task:
     family, rate = _trajectory(document.get("trajectory"), "trajectory")
     optimizer = _optimizer(document.get("optimizer"), "optimizer")
     label = _text(document["name"], "name") if "name" in document else name
-    return Task(label, joints, cartesian, robot, limits, family, rate, optimizer, source)
+    return Task(label, joints, cartesian, robot, limits, family, rate, optimizer, source, ik, path)
 
 
 def load_task(path) -> Task:

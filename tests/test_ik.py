@@ -1,11 +1,16 @@
+import itertools
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from planner import IKError, InputError, paper
-from planner.ik import pose_error, pose_from_position_quaternion, solve_pose, solve_waypoints
+from planner.ik import (choose_branches, pose_error, pose_from_position_quaternion, pose_solutions, solve_pose,
+                        solve_waypoints, turn_variants)
+from planner.limits import rest_to_rest_time
 from planner.robot import Robot
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -75,3 +80,73 @@ def test_pose_from_quaternion_matches_pinocchio():
     pose = pose_from_position_quaternion([1, 2, 3], quaternion)
     np.testing.assert_allclose(pin.Quaternion(pose.rotation).coeffs(), quaternion, atol=1e-12)
     np.testing.assert_allclose(pose.translation, [1, 2, 3])
+
+
+# ---------------------------------------------------------------------------- branch choice
+
+
+def smooth_branch_path(robot, rng, count=6, step_deg=10.0, margin_deg=20.0):
+    """Random joint path with small steps, inside the ranges and away from singularities."""
+    lower = np.maximum(robot.limits.lower, -np.pi) + np.deg2rad(margin_deg)
+    upper = np.minimum(robot.limits.upper, np.pi) - np.deg2rad(margin_deg)
+    while True:
+        q = [lower + (upper - lower) * rng.random(robot.dof)]
+        for _ in range(count - 1):
+            q.append(np.clip(q[-1] + np.deg2rad(rng.uniform(-step_deg, step_deg, robot.dof)), lower, upper))
+        if all(np.linalg.svd(robot.frame_jacobian(qi), compute_uv=False)[-1] > 0.05 for qi in q):
+            return np.array(q)
+
+
+@pytest.mark.parametrize("name", ["puma", "ur5"])
+def test_optimal_branch_recovers_a_smooth_path_without_hints(puma, name):
+    robot = puma if name == "puma" else Robot.from_example_robot_data("ur5", "tool0")
+    rng = np.random.default_rng(11)
+    for _ in range(3):
+        path = smooth_branch_path(robot, rng)
+        poses = [robot.forward_kinematics(q) for q in path]
+        solutions = solve_waypoints(robot, poses, start=path[0], seed=1)
+        chosen = np.array([s.q for s in solutions])
+        turns = (chosen - path) / (2 * np.pi)
+        np.testing.assert_allclose(turns, np.round(turns), atol=1e-6)
+        assert all(s.solutions >= 2 for s in solutions)  # there was a choice to make
+
+
+def test_pose_solutions_are_distinct_in_range_and_include_the_generating_one(puma):
+    q = np.deg2rad(paper.VIA_POINTS_DEG[1])
+    target = puma.forward_kinematics(q)
+    found, _ = pose_solutions(puma, target, puma.limits, np.random.default_rng(0))
+    assert len(found) >= 3
+    for s in found:
+        error = pose_error(puma, s.q, target)
+        assert max(np.linalg.norm(error[:3]), np.linalg.norm(error[3:])) <= 1e-9
+        assert len(turn_variants(puma, s.q, puma.limits)) >= 1
+    wrapped = [np.angle(np.exp(1j * s.q)) for s in found]
+    for i, a in enumerate(wrapped):
+        assert all(np.abs(np.angle(np.exp(1j * (a - b)))).max() > 1e-5 for b in wrapped[:i])
+    assert min(np.abs(np.angle(np.exp(1j * (w - q)))).max() for w in wrapped) <= 1e-6
+
+
+@given(st.integers(2, 5), st.lists(st.integers(1, 4), min_size=5, max_size=5), st.integers(0, 2**31))
+def test_branch_choice_is_the_brute_force_optimum(puma, count, sizes, seed):
+    rng = np.random.default_rng(seed)
+    candidates = [rng.uniform(-3, 3, (k, puma.dof)) for k in sizes[:count]]
+    start = rng.uniform(-3, 3, puma.dof)
+    paper_limits = paper.paper_limits()  # with the PUMA's finite ranges: no joint turns freely
+    limits = puma.limits.with_overrides(**{q: getattr(paper_limits, q) for q in ("velocity", "acceleration", "jerk")})
+    chosen = choose_branches(puma, limits, candidates, start)
+
+    def cost(sequence):
+        configurations = [start] + [c[i] for c, i in zip(candidates, sequence)]
+        return sum(rest_to_rest_time(np.abs(b - a), limits).max() for a, b in zip(configurations, configurations[1:]))
+    best = min(cost(s) for s in itertools.product(*(range(len(c)) for c in candidates)))
+    assert cost(chosen) <= best + 1e-12
+
+
+def test_turn_variants_cover_every_turn_in_range(puma):
+    q = np.deg2rad([10, -20, 30, 40, 50, -100])
+    variants = np.rad2deg(turn_variants(puma, q, puma.limits))
+    # Only joint 6 (range +-266 deg) has a second turn in range: -100 + 360 = 260.
+    assert sorted(np.round(variants[:, 5])) == [-100.0, 260.0]
+    np.testing.assert_allclose(variants[:, :5], np.rad2deg(np.tile(q[:5], (2, 1))))
+    narrow = puma.limits.with_overrides(lower=np.deg2rad([20, -225, -45, -110, -100, -266]))
+    assert len(turn_variants(puma, q, narrow)) == 0  # joint 1 at 10 deg is below 20 deg, in every turn

@@ -23,7 +23,7 @@ def test_paper_cartesian_task_recovers_table_ii():
     # The trajectory passes through the IK via-points at the via times.
     np.testing.assert_allclose(result.trajectory.evaluate(result.trajectory.via_times), result.via_points, atol=1e-9)
     summary = result.summary()
-    assert summary["robot"]["tool_frame"] == "tool" and len(summary["ik"]) == 8
+    assert summary["robot"]["tool_frame"] == "tool" and len(summary["ik"]["waypoints"]) == 8
 
 
 def test_ur5_task_plans_within_its_limits():

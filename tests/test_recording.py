@@ -27,8 +27,8 @@ def test_every_output_exists_and_agrees(planned):
                                                      "trajectory.csv", "trajectory.rrd"]
     summary = json.loads((out / "summary.json").read_text())
     assert summary["total_time_s"] == pytest.approx(sum(summary["durations_s"]))
-    assert summary["robot"]["name"] == result.robot.name and len(summary["ik"]) == len(result.ik)
-    assert all(w["position_error_m"] <= 1e-9 for w in summary["ik"])
+    assert summary["robot"]["name"] == result.robot.name and len(summary["ik"]["waypoints"]) == len(result.ik)
+    assert all(w["position_error_m"] <= 1e-9 for w in summary["ik"]["waypoints"])
     # The trajectory passes through the IK via-points at the via times, and its samples respect the limits.
     trajectory = result.trajectory
     np.testing.assert_allclose(trajectory.evaluate(summary["via_times_s"]), result.via_points, atol=1e-9)

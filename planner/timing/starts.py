@@ -5,7 +5,7 @@ A chord is the motion between two consecutive (distinct) via-points, D_j =
 
 * ``rest-to-rest``: the slowest joint's time to cover D_j from rest to rest,
   max_j max(D_j / V_j, 2 sqrt(D_j / A_j), (32 D_j / Jk_j)^(1/3)) (the
-  velocity-, acceleration- and jerk-limited minima);
+  velocity-, acceleration- and jerk-limited minima, ``limits.rest_to_rest_time``);
 * ``cruise``: max_j D_j / V_j, the time at the velocity limit (rest-to-rest
   where no joint has one).
 
@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..limits import rest_to_rest_time
 from .problem import TimingProblem
 
 _CHORD_FLOOR = 1e-3
@@ -43,9 +44,7 @@ def start_shapes(problem: TimingProblem) -> dict[str, np.ndarray]:
     limits = problem.limits
     distance = np.abs(np.diff(problem.via_points, axis=0))  # (chords, J)
     velocity = distance / limits.velocity  # absent limits are inf: their terms vanish
-    acceleration = 2.0 * np.sqrt(distance / limits.acceleration)
-    jerk = np.cbrt(32.0 * distance / limits.jerk)
-    rest = np.maximum.reduce([velocity, acceleration, jerk]).max(axis=1)
+    rest = rest_to_rest_time(distance, limits).max(axis=1)
     cruise = velocity.max(axis=1) if np.isfinite(limits.velocity).any() else rest
     return {"rest-to-rest": _spread(problem, rest), "cruise": _spread(problem, cruise),
             "uniform": np.ones(problem.segment_count)}

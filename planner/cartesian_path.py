@@ -1,0 +1,209 @@
+"""Straight tool motion between Cartesian waypoints, and how far a trajectory's tool strays from it.
+
+The straight segment from pose A to pose B is the curve
+
+    p(u) = (1 - u) p_A + u p_B,     R(u) = R_A exp(u log(R_A^T R_B)),     u in [0, 1]
+
+(position on the line, orientation by slerp). A tool pose (p, R) deviates
+from it by two numbers, each exact (``segment_deviation``):
+
+* position: the distance from p to the line segment (closest point, u clamped
+  to [0, 1]);
+* orientation: the angle from R to the nearest rotation on the slerp arc. With
+  Q = R_A^T R as a unit quaternion (w, v) and the arc's axis n and angle phi,
+  rotating back by theta about n leaves a rotation whose quaternion has scalar
+  part cos(theta/2) w + sin(theta/2) (n . v); its angle is smallest where |.| is
+  largest: at theta/2 = atan2(n . v, w) (mod pi), clamped to [0, phi/2], or at an
+  end. The angle is computed as 2 atan2(|vector part|, |scalar part|), accurate near 0.
+
+``follow_straight_lines`` makes a joint trajectory follow the segments: it
+inserts poses along each segment (IK seeded from the neighbouring
+configurations, so the branch is kept), times the via-points, samples the
+tool by forward kinematics at ``CHECK_RATE_HZ`` (and at least
+``CHECK_SAMPLES`` per via-point interval), inserts the midpoint of every
+interval whose tool strays beyond ``MARGIN`` of a tolerance, and repeats until
+none does. The margin covers what lies between samples.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, TypeVar
+
+import numpy as np
+import pinocchio as pin
+
+from .errors import IKError
+from .ik import solve_pose
+from .robot import Robot
+from .splines import PiecewisePolynomial
+
+#: Forward-kinematics samples per second of trajectory when checking the deviation.
+CHECK_RATE_HZ = 250.0
+#: At least this many samples per via-point interval.
+CHECK_SAMPLES = 8
+#: Poses are inserted until the sampled deviation is within this fraction of each tolerance.
+MARGIN = 0.95
+#: A segment is given up when two consecutive poses on it are closer than this (fraction of it).
+MIN_FRACTION = 1e-3
+#: Rounds of insertion before giving up.
+MAX_ROUNDS = 25
+
+Timing = TypeVar("Timing")
+
+
+def interpolate_pose(a: pin.SE3, b: pin.SE3, u: float) -> pin.SE3:
+    """The pose at fraction ``u`` of the straight segment from ``a`` to ``b`` (module docstring)."""
+    rotation = a.rotation @ pin.exp3(u * pin.log3(a.rotation.T @ b.rotation))
+    return pin.SE3(rotation, (1 - u) * a.translation + u * b.translation)
+
+
+def segment_deviation(a: pin.SE3, b: pin.SE3, positions: np.ndarray,
+                      rotations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Distance [m] and angle [rad] of tool poses from the straight segment ``a`` -> ``b``.
+
+    Args:
+        positions: (N, 3) tool positions [m]; rotations: (N, 3, 3) tool orientations.
+
+    Returns:
+        (N,) distances to the line segment and (N,) angles to the slerp arc.
+    """
+    chord = b.translation - a.translation
+    length2 = float(chord @ chord)
+    offset = positions - a.translation
+    u = np.clip(offset @ chord / length2, 0.0, 1.0) if length2 > 0 else np.zeros(len(positions))
+    distance = np.linalg.norm(offset - u[:, None] * chord, axis=1)
+
+    arc = pin.log3(a.rotation.T @ b.rotation)
+    phi = float(np.linalg.norm(arc))
+    axis = arc / phi if phi > 0 else np.zeros(3)
+    relative = np.einsum("ji,njk->nik", a.rotation, rotations)
+    quaternions = np.array([pin.Quaternion(r).coeffs() for r in relative])  # (x, y, z, w)
+    w, along = quaternions[:, 3], quaternions[:, :3] @ axis
+    best = np.mod(np.arctan2(along, w), np.pi)  # theta / 2 of the unconstrained optimum, in [0, pi)
+    halves = np.stack([np.zeros_like(w), np.full_like(w, phi / 2), np.clip(best, 0.0, phi / 2)])
+    half = halves[np.argmax(np.abs(np.cos(halves) * w + np.sin(halves) * along), axis=0), np.arange(len(w))]
+    c, s = np.cos(half)[:, None], np.sin(half)[:, None]
+    vector = quaternions[:, :3]
+    # The rotation left after turning back by theta about the axis, (c, -s n) * (w, v), in full for accuracy.
+    scalar = c[:, 0] * w + s[:, 0] * along
+    rest = c * vector - s * w[:, None] * axis - s * np.cross(axis, vector)
+    return distance, 2.0 * np.arctan2(np.linalg.norm(rest, axis=1), np.abs(scalar))
+
+
+def tool_deviation(robot: Robot, trajectory: PiecewisePolynomial, poses: list[pin.SE3],
+                   waypoint_via: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """How far the tool strays from the straight segments, sampled by forward kinematics.
+
+    Args:
+        poses: the n user waypoints' poses; waypoint_via: (n,) their indices among the via-points.
+
+    Returns:
+        Per via-point interval (m - 1,): the largest distance [m] and angle [rad]; per
+        user segment (n - 1,): the same.
+    """
+    times = trajectory.via_times
+    intervals = len(times) - 1
+    segment_of = np.searchsorted(waypoint_via, np.arange(intervals), side="right") - 1
+    distance, angle = np.zeros(intervals), np.zeros(intervals)
+    for k in range(intervals):
+        count = max(CHECK_SAMPLES, int(np.ceil((times[k + 1] - times[k]) * CHECK_RATE_HZ))) + 1
+        q = trajectory.evaluate(np.linspace(times[k], times[k + 1], count))
+        frames = [robot.forward_kinematics(qi) for qi in q]
+        i = segment_of[k]
+        d, a = segment_deviation(poses[i], poses[i + 1], np.array([f.translation for f in frames]),
+                                 np.array([f.rotation for f in frames]))
+        distance[k], angle[k] = d.max(), a.max()
+    per_segment = [np.zeros(len(poses) - 1) for _ in range(2)]
+    for values, out in zip((distance, angle), per_segment):
+        np.maximum.at(out, segment_of, values)
+    return distance, angle, per_segment[0], per_segment[1]
+
+
+@dataclass
+class StraightPath:
+    """A joint trajectory whose tool follows the straight segments between waypoints.
+
+    Attributes:
+        via_points: (m, J) every via-point [rad]: the waypoints' and the inserted poses'.
+        waypoint_via: (n,) index of each user waypoint among the via-points.
+        inserted: (n - 1,) poses inserted on each segment.
+        max_distance_m, max_angle_rad: (n - 1,) the largest sampled deviation per segment.
+        rounds: timing rounds made.
+    """
+
+    via_points: np.ndarray
+    waypoint_via: np.ndarray
+    inserted: np.ndarray
+    max_distance_m: np.ndarray
+    max_angle_rad: np.ndarray
+    rounds: int
+
+
+def follow_straight_lines(robot: Robot, poses: list[pin.SE3], waypoint_q: np.ndarray,
+                          time_via_points: Callable[[np.ndarray], tuple[PiecewisePolynomial, Timing]],
+                          tolerance_m: float, tolerance_rad: float) -> tuple[StraightPath, Timing]:
+    """Insert poses until the timed trajectory's tool stays on the straight segments.
+
+    Args:
+        poses: the n waypoints' poses; waypoint_q: (n, J) their configurations [rad].
+        time_via_points: times (m, J) via-points; returns the trajectory and whatever
+            else the caller keeps (returned with the path, for the final via-points).
+        tolerance_m, tolerance_rad: the largest distance [m] and angle [rad] allowed.
+
+    Raises:
+        IKError: a segment that leaves the reachable workspace, or that no joint
+            motion follows (the deviation does not shrink as poses are inserted), naming
+            the segment, the fraction along it and the position.
+    """
+    # Per segment: the fractions u of its poses and their configurations, both ends included.
+    fractions = [[0.0, 1.0] for _ in range(len(poses) - 1)]
+    configurations = [[waypoint_q[i], waypoint_q[i + 1]] for i in range(len(poses) - 1)]
+    for rounds in range(1, MAX_ROUNDS + 1):
+        via = np.array([configurations[0][0]] + [q for segment in configurations for q in segment[1:]])
+        counts = np.array([len(f) - 1 for f in fractions])
+        waypoint_via = np.concatenate(([0], np.cumsum(counts)))
+        trajectory, timing = time_via_points(via)
+        distance, angle, per_distance, per_angle = tool_deviation(robot, trajectory, poses, waypoint_via)
+        exceeded = (distance > MARGIN * tolerance_m) | (angle > MARGIN * tolerance_rad)
+        if not exceeded.any():
+            return StraightPath(via, waypoint_via, counts - 1, per_distance, per_angle, rounds), timing
+        if rounds == MAX_ROUNDS:
+            break
+        found = [(int(np.searchsorted(waypoint_via, k, side="right") - 1), int(k)) for k in np.flatnonzero(exceeded)]
+        # Segment by segment; within one, backwards, so an insertion keeps the earlier indices valid.
+        for i, k in sorted(found, key=lambda item: (item[0], -item[1])):
+            _insert(robot, poses, i, k - waypoint_via[i], fractions[i], configurations[i], distance[k], angle[k])
+    k = int(np.argmax(np.maximum(distance / tolerance_m, angle / tolerance_rad)))
+    i = int(np.searchsorted(waypoint_via, k, side="right") - 1)
+    raise IKError(f"path segment {i} (waypoint {i} -> {i + 1}): the tool still strays {1e3 * distance[k]:.3g} mm "
+                  f"and {np.rad2deg(angle[k]):.3g} deg from the straight line after {MAX_ROUNDS} rounds",
+                  waypoint=i)
+
+
+def _insert(robot: Robot, poses: list[pin.SE3], segment: int, local: int, fractions: list[float],
+            configurations: list[np.ndarray], distance: float, angle: float) -> None:
+    """Insert the pose halfway between poses ``local`` and ``local + 1`` of ``segment``."""
+    low, high = fractions[local], fractions[local + 1]
+    u = (low + high) / 2
+    target = interpolate_pose(poses[segment], poses[segment + 1], u)
+    where = (f"path segment {segment} (waypoint {segment} -> {segment + 1}) at fraction {u:.4g}, "
+             f"position [{', '.join(f'{x:.4f}' for x in target.translation)}] m")
+    if high - low < 2 * MIN_FRACTION:
+        raise IKError(f"{where}: the tool strays {1e3 * distance:.3g} mm and {np.rad2deg(angle):.3g} deg from "
+                      f"the straight line however close the poses; no joint motion within the ranges follows it "
+                      f"(a singularity or a joint range on the way)", waypoint=segment)
+    before, after = configurations[local], configurations[local + 1]
+    best = None
+    for seed in ((before + after) / 2, before, after):
+        solution = solve_pose(robot, target, seed)
+        if best is None or solution.residual < best.residual:
+            best = solution
+        if best.residual <= 1e-9:
+            break
+    if best.residual > 1e-9:
+        raise IKError(f"{where}: the straight line leaves the reachable workspace (best residual "
+                      f"{best.position_error:.3g} m, {best.orientation_error:.3g} rad)",
+                      waypoint=segment, residual=best.residual)
+    fractions.insert(local + 1, u)
+    configurations.insert(local + 1, best.q)

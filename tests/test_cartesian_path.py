@@ -1,0 +1,141 @@
+import csv
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+import yaml
+from hypothesis import given
+from hypothesis import strategies as st
+from scipy.spatial.transform import Rotation, Slerp
+
+from planner import IKError, TaskError
+from planner.cartesian_path import interpolate_pose, segment_deviation
+from planner.pipeline import plan
+from planner.task import load_task, parse_task
+
+ROOT = Path(__file__).resolve().parents[1]
+TASKS = ROOT / "scripts" / "tasks"
+
+
+def dense_deviation(a_position, a_rotation, b_position, b_rotation, positions, rotations, count=20001):
+    """Independent: distance and angle to the straight segment by a dense grid over u (scipy's slerp)."""
+    u = np.linspace(0.0, 1.0, count)
+    line = (1 - u)[:, None] * a_position + u[:, None] * b_position
+    arc = Slerp([0.0, 1.0], Rotation.from_matrix(np.stack([a_rotation, b_rotation])))(u)
+    distance = np.array([np.linalg.norm(line - p, axis=1).min() for p in positions])
+    angle = np.array([(arc.inv() * Rotation.from_matrix(r)).magnitude().min() for r in rotations])
+    return distance, angle
+
+
+@given(st.integers(0, 2**31))
+def test_segment_deviation_matches_a_dense_search(seed):
+    rng = np.random.default_rng(seed)
+    a, b = (pin.SE3(Rotation.random(random_state=rng.integers(2**31)).as_matrix(), rng.uniform(-1, 1, 3))
+            for _ in range(2))
+    positions = rng.uniform(-1, 1, (5, 3))
+    rotations = Rotation.random(5, random_state=rng.integers(2**31)).as_matrix()
+    # Include poses on the segment itself: both deviations vanish there.
+    on = [interpolate_pose(a, b, u) for u in (0.0, 0.3, 1.0)]
+    positions = np.vstack([positions, [p.translation for p in on]])
+    rotations = np.concatenate([rotations, [p.rotation for p in on]])
+    distance, angle = segment_deviation(a, b, positions, rotations)
+    expected_distance, expected_angle = dense_deviation(a.translation, a.rotation, b.translation, b.rotation,
+                                                        positions, rotations)
+    # The dense grid only finds a point at least as far as the exact closest one (grid step 5e-5).
+    assert np.all(distance <= expected_distance + 1e-12) and np.all(expected_distance - distance <= 1e-4)
+    assert np.all(angle <= expected_angle + 1e-9) and np.all(expected_angle - angle <= 1e-3)
+    assert np.all(distance[-3:] <= 1e-12) and np.all(angle[-3:] <= 1e-12)
+
+
+def linear_ur5_task(tmp_path: Path) -> Path:
+    data = yaml.safe_load((TASKS / "ur5_pick_and_place.yaml").read_text())
+    data["path"] = {"mode": "linear", "tolerance_m": 0.001, "tolerance_deg": 0.5}
+    path = tmp_path / "ur5_linear.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def test_linear_mode_keeps_the_tool_on_the_straight_segments(tmp_path):
+    task = load_task(linear_ur5_task(tmp_path))
+    result = plan(task)
+    result.save(tmp_path / "out")
+    assert result.path.inserted.sum() > 0 and result.optimization.feasible
+    # Independent check: trajectory.csv and the URDF, through a fresh Pinocchio model.
+    model = pin.buildModelFromUrdf(str(result.robot.urdf_path))
+    data = model.createData()
+    frame = model.getFrameId("tool0")
+    with open(tmp_path / "out" / "trajectory.csv") as handle:
+        rows = list(csv.DictReader(handle))
+    times = np.array([float(r["time_s"]) for r in rows])
+    q = np.deg2rad([[float(r[f"q{j + 1}_deg"]) for j in range(6)] for r in rows])
+    poses = [(w.position, Rotation.from_quat(w.quaternion_xyzw).as_matrix()) for w in task.cartesian_waypoints]
+    via_times = result.trajectory.via_times[result.waypoint_via]
+    for i in range(len(poses) - 1):
+        inside = (times >= via_times[i]) & (times <= via_times[i + 1])
+        positions, rotations = [], []
+        for qi in q[inside]:
+            pin.framesForwardKinematics(model, data, qi)
+            positions.append(data.oMf[frame].translation.copy())
+            rotations.append(data.oMf[frame].rotation.copy())
+        distance, angle = dense_deviation(*poses[i], *poses[i + 1], np.array(positions), np.array(rotations), 2001)
+        # The grid over u adds at most its step times the segment length to the distance.
+        step = np.linalg.norm(poses[i + 1][0] - poses[i][0]) / 2000
+        assert distance.max() <= 1e-3 + step, f"segment {i}: {distance.max()} m"
+        assert angle.max() <= np.deg2rad(0.5) + 1e-3, f"segment {i}: {np.rad2deg(angle.max())} deg"
+    summary = result.summary()["path"]
+    assert summary["mode"] == "linear" and len(summary["segments"]) == len(poses) - 1
+    assert all(s["max_position_deviation_m"] <= 1e-3 for s in summary["segments"])
+    # Only the task's waypoints are waypoints: the via-points hold them in order, inserted poses between.
+    np.testing.assert_allclose(result.via_points[result.waypoint_via], np.array([s.q for s in result.ik]))
+
+
+def test_joint_mode_reports_how_far_the_tool_strays(tmp_path):
+    result = plan(TASKS / "ur5_pick_and_place.yaml")
+    summary = result.summary()["path"]
+    assert summary["mode"] == "joint" and all(s["inserted_poses"] == 0 for s in summary["segments"])
+    # The bundled task's carry move loops far from the straight line in joint space.
+    assert max(s["max_position_deviation_m"] for s in summary["segments"]) > 0.01
+
+
+def test_straight_line_through_an_unreachable_region_fails_naming_the_segment():
+    data = yaml.safe_load((TASKS / "puma560_paper_cartesian.yaml").read_text())
+    data["waypoints"]["cartesian"] = data["waypoints"]["cartesian"][:2]
+    data["path"] = {"mode": "linear"}
+    with pytest.raises(IKError, match=r"path segment 0 \(waypoint 0 -> 1\) at fraction .*position \[.*\] m"):
+        plan(parse_task(data, source=TASKS / "puma560_paper_cartesian.yaml"))
+
+
+@pytest.mark.parametrize("section, message", [
+    ({"path": {"mode": "curved"}}, "path.mode: unknown path mode"),
+    ({"path": {"tolerance_m": -1}}, "path.tolerance_m: must be > 0"),
+    ({"ik": {"branch": "any"}}, "ik.branch: unknown branch rule"),
+    ({"ik": {"start_deg": [0, "a"]}}, r"ik.start_deg\[1\]: must be a number"),
+])
+def test_bad_ik_and_path_options_name_the_key(section, message):
+    data = yaml.safe_load((TASKS / "puma560_paper_cartesian.yaml").read_text())
+    with pytest.raises(TaskError, match=message):
+        parse_task({**data, **section}, source=TASKS / "puma560_paper_cartesian.yaml")
+
+
+def test_path_options_need_cartesian_waypoints():
+    data = yaml.safe_load((TASKS / "puma560_paper_joint.yaml").read_text())
+    with pytest.raises(TaskError, match="path: applies to cartesian waypoints only"):
+        parse_task({**data, "path": {"mode": "linear"}})
+
+
+def test_ik_start_of_the_wrong_length_names_the_key():
+    data = yaml.safe_load((TASKS / "puma560_paper_cartesian.yaml").read_text())
+    with pytest.raises(TaskError, match=r"ik.start_deg: must have 6 values"):
+        plan(parse_task({**data, "ik": {"start_deg": [0, 0]}}, source=TASKS / "puma560_paper_cartesian.yaml"))
+
+
+def test_optimal_branches_are_no_slower_than_continuous_on_the_paper_poses():
+    data = yaml.safe_load((TASKS / "puma560_paper_cartesian.yaml").read_text())
+    for waypoint in data["waypoints"]["cartesian"]:
+        del waypoint["hint_deg"]
+    totals = {}
+    for branch in ("optimal", "continuous"):
+        task = parse_task({**data, "ik": {"branch": branch}}, source=TASKS / "puma560_paper_cartesian.yaml")
+        totals[branch] = plan(task).trajectory.total_time
+    assert totals["optimal"] <= totals["continuous"] + 1e-9
