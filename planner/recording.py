@@ -6,7 +6,8 @@ What a recording holds (timeline ``time``, in seconds):
   (``rerun.urdf.UrdfTree``), its joints animated by per-joint transforms;
   joints the planner locked are logged once at their neutral value.
 * ``scene/tool_path`` (the tool frame's path, a 3D line),
-  ``scene/waypoints`` (the task's waypoints as RGB axes), and for Cartesian
+  ``scene/waypoints`` (the task's waypoints as RGB axes, labelled with their index
+  and, for Cartesian tasks, the IK solution chosen of those found), and for Cartesian
   tasks ``scene/straight_segments`` (the straight lines between waypoints) and
   ``scene/inserted_poses`` (poses ``linear`` mode inserted), in the robot's root frame.
 * ``profiles/{position,velocity,acceleration,jerk}/<joint>``: time series in
@@ -123,8 +124,11 @@ def _log_robot(rec, result, times: np.ndarray, positions: np.ndarray) -> None:
     poses = [robot.forward_kinematics(q) for q in result.via_points[waypoints]]
     origins = np.repeat([p.translation for p in poses], 3, axis=0)
     vectors = np.concatenate([0.06 * p.rotation.T for p in poses])
+    labels = [f"waypoint {i}" + (f" (IK solution {s.chosen + 1} of {s.solutions})" if result.ik else "")
+              for i, s in enumerate(result.ik or [None] * len(poses))]
     rec.log("scene/waypoints", rr.Arrows3D(origins=origins, vectors=vectors,
-                                           colors=[[230, 40, 40], [40, 200, 40], [40, 90, 230]] * len(poses)),
+                                           colors=[[230, 40, 40], [40, 200, 40], [40, 90, 230]] * len(poses),
+                                           labels=[text for label in labels for text in (label, "", "")]),
             rr.CoordinateFrame(root), static=True)
     if result.path is not None:
         rec.log("scene/straight_segments", rr.LineStrips3D([[p.translation for p in poses]], colors=[[150, 150, 150]],
