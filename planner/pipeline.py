@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from .cartesian_path import StraightPath, follow_straight_lines, tool_deviation
-from .errors import IKError, InfeasibleError, RobotError, TaskError
+from .errors import IKError, InfeasibleError, PlannerError, RobotError, TaskError
 from .ik import IKSolution, pose_from_position_quaternion, solve_waypoints
 from .export import (atomic_output_folder, coefficients_document, write_json, write_trajectory_csv)
 from .kinematics import KinematicFigures, kinematic_figures
@@ -218,13 +218,20 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
                                   f"{result.max_ratio:.6g} (limit 1)")
         return problem.trajectory(result.durations), (problem, result)
 
+    def total_time(points: np.ndarray) -> float | None:
+        """The planned total time [s] of a candidate sequence, None where it cannot be timed."""
+        try:
+            return time_via_points(points)[0].total_time
+        except PlannerError:
+            return None
+
     branch_times = {}
     if alternative is not None:
         other = np.array([solution.q for solution in alternative])
         if not np.allclose(other, via, rtol=0, atol=1e-9):
-            branch_times = {"optimal": time_via_points(via)[0].total_time,
-                            "continuous": time_via_points(other)[0].total_time}
-            if branch_times["continuous"] < branch_times["optimal"]:
+            branch_times = {"optimal": total_time(via), "continuous": total_time(other)}
+            mine, theirs = branch_times["optimal"], branch_times["continuous"]
+            if theirs is not None and (mine is None or theirs < mine):
                 ik, via = alternative, other
     path = None
     if poses is not None and task.path.mode == "linear":

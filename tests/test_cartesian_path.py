@@ -139,3 +139,21 @@ def test_optimal_branches_are_no_slower_than_continuous_on_the_paper_poses():
         task = parse_task({**data, "ik": {"branch": branch}}, source=TASKS / "puma560_paper_cartesian.yaml")
         totals[branch] = plan(task).trajectory.total_time
     assert totals["optimal"] <= totals["continuous"] + 1e-9
+
+
+def test_a_comparison_sequence_that_cannot_be_timed_does_not_fail_the_plan(monkeypatch):
+    import planner.pipeline as pipeline
+    from planner.ik import solve_waypoints
+
+    data = yaml.safe_load((TASKS / "ur5_pick_and_place.yaml").read_text())
+    real = solve_waypoints
+
+    def continuous_out_of_range(robot, poses, **kwargs):
+        solutions = real(robot, poses, **kwargs)
+        if kwargs.get("branch") == "continuous":  # an impossible sequence: a via-point beyond every range
+            solutions[1] = type(solutions[1])(solutions[1].q + 100.0, 0.0, 0.0, 1)
+        return solutions
+    monkeypatch.setattr(pipeline, "solve_waypoints", continuous_out_of_range)
+    result = plan(parse_task(data, source=TASKS / "ur5_pick_and_place.yaml"))
+    assert result.branch_times["continuous"] is None and result.branch_times["optimal"] > 0
+    assert result.optimization.feasible
