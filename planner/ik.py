@@ -167,10 +167,16 @@ def turn_variants(robot: Robot, q: np.ndarray, limits: JointLimits) -> np.ndarra
     return np.stack([g.ravel() for g in grids], axis=1)
 
 
+def _distinct(robot: Robot, q: np.ndarray, others: list[IKSolution]) -> bool:
+    """Whether ``q`` differs from every one of ``others`` by more than ``DISTINCT``, up to 2 pi turns."""
+    return all(np.max(np.abs(_wrapped(robot, q - other.q))) > DISTINCT for other in others)
+
+
 def pose_solutions(robot: Robot, target: pin.SE3, limits: JointLimits, rng: np.random.Generator, *,
-                   starts: int = SOLUTION_STARTS, accept: float = 1e-9) -> tuple[list[IKSolution], IKSolution]:
-    """The distinct solutions of one pose within the ranges of ``limits``, and the best solve
-    (lowest residual, for an error message when there is none).
+                   starts: int = SOLUTION_STARTS,
+                   accept: float = 1e-9) -> tuple[list[IKSolution], IKSolution, int]:
+    """The distinct solutions of one pose within the ranges of ``limits``, the best solve
+    (lowest residual, for an error message when there is none) and the starts used.
 
     Each random start is solved without clipping; a converged solution with no
     2 pi turn inside the ranges is solved again with clipping from its clipped
@@ -180,20 +186,19 @@ def pose_solutions(robot: Robot, target: pin.SE3, limits: JointLimits, rng: np.r
     lower, upper = _finite_ranges(robot)
     found: list[IKSolution] = []
     best = None
-    for _ in range(starts):
+    for attempt in range(1, starts + 1):
         solution = solve_pose(robot, target, lower + (upper - lower) * rng.random(robot.dof), clip=False)
-        if solution.residual <= accept and not len(turn_variants(robot, solution.q, limits)):
-            solution = solve_pose(robot, target, solution.q)
         inside = solution.residual <= accept and len(turn_variants(robot, solution.q, limits)) > 0
+        if solution.residual <= accept and not inside:
+            solution = solve_pose(robot, target, solution.q)
+            inside = solution.residual <= accept and len(turn_variants(robot, solution.q, limits)) > 0
         if best is None or (inside, -solution.residual) > (best[0], -best[1].residual):
             best = (inside, solution)
-        if not inside:
-            continue
-        if all(np.max(np.abs(_wrapped(robot, solution.q - other.q))) > DISTINCT for other in found):
+        if inside and _distinct(robot, solution.q, found):
             found.append(solution)
             if len(found) == MAX_SOLUTIONS:
                 break
-    return found, best[1]
+    return found, best[1], attempt
 
 
 def transition_costs(robot: Robot, limits: JointLimits, before: np.ndarray, after: np.ndarray) -> np.ndarray:
@@ -272,7 +277,7 @@ def _optimal_branches(robot, poses, hints, start, limits, rng, accept) -> list[I
             best = solve_pose(robot, target, np.asarray(hint, dtype=float))
             found, attempts = ([best] if best.residual <= accept else []), 1
         else:
-            (found, best), attempts = pose_solutions(robot, target, limits, rng, accept=accept), SOLUTION_STARTS
+            found, best, attempts = pose_solutions(robot, target, limits, rng, accept=accept)
         if not found:
             raise IKError(f"waypoint {index}: pose not reached within the joint ranges after {attempts} "
                           f"attempt{'s' * (attempts > 1)}; best residual {best.position_error:.3g} m, "
@@ -320,8 +325,7 @@ def _continuous_branch(robot, poses, hints, start, rng, restarts, accept) -> lis
             raise IKError(f"waypoint {index}: pose not reached within the joint ranges after {attempts} attempts; "
                           f"best residual {best.position_error:.3g} m, {best.orientation_error:.3g} rad",
                           waypoint=index, residual=best.residual)
-        distinct = [s for i, s in enumerate(found)
-                    if all(np.max(np.abs(_wrapped(robot, s.q - o.q))) > DISTINCT for o in found[:i])]
+        distinct = [s for i, s in enumerate(found) if _distinct(robot, s.q, found[:i])]
         chosen = min(distinct, key=lambda s: np.linalg.norm(_nearest_turn(robot, s.q, previous) - previous))
         q = _nearest_turn(robot, chosen.q, previous) if hint is None else chosen.q
         jump = float(np.linalg.norm(q - previous)) if index else 0.0

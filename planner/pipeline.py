@@ -218,21 +218,23 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
                                   f"{result.max_ratio:.6g} (limit 1)")
         return problem.trajectory(result.durations), (problem, result)
 
-    def total_time(points: np.ndarray) -> float | None:
-        """The planned total time [s] of a candidate sequence, None where it cannot be timed."""
+    def timed_or_none(points: np.ndarray):
+        """``time_via_points(points)``, or None where the sequence cannot be timed."""
         try:
-            return time_via_points(points)[0].total_time
+            return time_via_points(points)
         except PlannerError:
             return None
 
-    branch_times = {}
+    branch_times, timed = {}, None
     if alternative is not None:
         other = np.array([solution.q for solution in alternative])
         if not np.allclose(other, via, rtol=0, atol=1e-9):
-            branch_times = {"optimal": total_time(via), "continuous": total_time(other)}
-            mine, theirs = branch_times["optimal"], branch_times["continuous"]
-            if theirs is not None and (mine is None or theirs < mine):
-                ik, via = alternative, other
+            mine, theirs = timed_or_none(via), timed_or_none(other)
+            branch_times = {name: None if t is None else t[0].total_time
+                            for name, t in (("optimal", mine), ("continuous", theirs))}
+            timed = mine
+            if theirs is not None and (mine is None or branch_times["continuous"] < branch_times["optimal"]):
+                ik, via, timed = alternative, other, theirs
     path = None
     if poses is not None and task.path.mode == "linear":
         path, (problem, result) = follow_straight_lines(robot, poses, via, time_via_points, task.path.tolerance_m,
@@ -240,7 +242,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         via = path.via_points
         trajectory = problem.trajectory(result.durations)
     else:
-        trajectory, (problem, result) = time_via_points(via)
+        trajectory, (problem, result) = timed or time_via_points(via)  # the comparison's timing is reused
         if poses is not None:
             waypoints = np.arange(len(poses))
             *_, distance, angle = tool_deviation(robot, trajectory, poses, waypoints)
