@@ -7,11 +7,46 @@ waypoint, joint, key path, value and bound where they apply) and an
 
 from __future__ import annotations
 
+#: Longest text of one value shown in a message [characters].
+SHOWN_VALUE_CHARS = 80
+#: Longest message of any planner error [characters]; longer ones are cut in the middle.
+MESSAGE_CHARS = 600
+
+
+def shown(value, limit: int = SHOWN_VALUE_CHARS) -> str:
+    """``repr(value)`` cut to at most ``limit`` characters (with its full length said), for messages.
+
+    A value from a task file can be arbitrarily large (a YAML alias bomb expands
+    a few hundred bytes into megabytes): no message prints one in full.
+    """
+    try:
+        text = repr(value)
+    except Exception:  # a value whose repr fails still gets a message
+        text = f"<{type(value).__name__}>"
+    if len(text) <= limit:
+        return text
+    return f"{text[:limit - 1]}… ({len(text)} characters)"
+
+
+def one_line(message: str, limit: int = MESSAGE_CHARS) -> str:
+    """``message`` on one line (newlines become spaces), cut in the middle beyond ``limit`` characters."""
+    text = " ".join(str(message).split("\n"))
+    if len(text) <= limit:
+        return text
+    half = (limit - 5) // 2
+    return f"{text[:half]} [...] {text[-half:]}"
+
 
 class PlannerError(Exception):
-    """Base class of every error the planner raises on purpose."""
+    """Base class of every error the planner raises on purpose.
+
+    Its message is one line of at most ``MESSAGE_CHARS`` characters, whatever it is built from.
+    """
 
     exit_code: int = 1
+
+    def __init__(self, message: str = ""):
+        super().__init__(one_line(message))
 
 
 class InputError(PlannerError, ValueError):

@@ -46,6 +46,7 @@ from .robot import Robot
 
 TOLERANCE = 1e-10
 _DAMPING = 1e-3
+_DAMPING_FLOOR = 1e-12
 _MAX_ITERATIONS = 100
 _ALTERNATIVES = 4
 BRANCH_RULES = ("optimal", "continuous")
@@ -113,7 +114,7 @@ def solve_pose(robot: Robot, target: pin.SE3, seed: np.ndarray, *, tolerance: fl
         if max(np.linalg.norm(error[:3]), np.linalg.norm(error[3:])) <= tolerance:
             break
         jacobian = pin.Jlog6(offset) @ robot.frame_jacobian(q)
-        damping = _DAMPING * float(error @ error)
+        damping = _DAMPING * float(error @ error) + _DAMPING_FLOOR  # the floor keeps J J^T + lambda I invertible
         step = jacobian.T @ np.linalg.solve(jacobian @ jacobian.T + damping * np.eye(6), error)
         q = np.clip(pin.integrate(robot.model, q, step), lower, upper)
     error = pose_error(robot, q, target)
