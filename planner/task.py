@@ -16,7 +16,7 @@ Schema (version 1)::
       position_deg: [[lower, upper], ...]
     ik: {branch: optimal, start_deg: [...], seed: 0}       # cartesian only; branch: optimal | continuous
     path: {mode: joint, tolerance_m: 0.001, tolerance_deg: 0.5}   # cartesian only; mode: joint | linear
-    trajectory: {family: hybrid, sample_rate_hz: 100}
+    trajectory: {family: hybrid, sample_rate_hz: 100, min_segment_s: 0.001}
     optimizer: {algorithm: default, seed: 0, bounds_s: [h_min, h_max], objective: time,
                 weights: [K_t, K_j], ...algorithm settings (nests, iterations, pa, ...)}
 
@@ -41,6 +41,9 @@ from .timing import OPTIMIZERS, cuckoo_search
 from .timing.problem import OBJECTIVES
 
 SCHEMA_VERSION = 1
+#: Default shortest segment duration [s]: one period of a 1 kHz controller. Merged repeated
+#: via-points keep their zero-length segment.
+MIN_SEGMENT_S = 1e-3
 _TOP_KEYS = ("version", "name", "robot", "waypoints", "limits", "ik", "path", "trajectory", "optimizer")
 PATH_MODES = ("joint", "linear")
 _LIMIT_KEYS = {"velocity_deg_s": "velocity", "acceleration_deg_s2": "acceleration", "jerk_deg_s3": "jerk"}
@@ -118,6 +121,7 @@ class Task:
     limits: dict[str, np.ndarray]
     family: str = "hybrid"
     sample_rate_hz: float = 100.0
+    min_segment_s: float = 1e-3
     optimizer: dict = field(default_factory=lambda: {"algorithm": "default", "seed": 0, "bounds": None,
                                                      "objective": "time", "weights": (1.0, 1.0),
                                                      "settings": {}})
@@ -319,14 +323,16 @@ def _optimizer(value, path: str) -> dict:
     return result
 
 
-def _trajectory(value, path: str) -> tuple[str, float]:
-    section = _mapping({} if value is None else value, path, ("family", "sample_rate_hz"))
+def _trajectory(value, path: str) -> tuple[str, float, float]:
+    section = _mapping({} if value is None else value, path, ("family", "sample_rate_hz", "min_segment_s"))
     family = section.get("family", "hybrid")
     if family not in FAMILIES:
         raise TaskError(f"{path}.family", f"unknown family {family!r}; known: {', '.join(FAMILIES)}")
     rate = _number(section["sample_rate_hz"], f"{path}.sample_rate_hz", positive=True) \
         if "sample_rate_hz" in section else 100.0
-    return family, rate
+    minimum = _number(section["min_segment_s"], f"{path}.min_segment_s", positive=True) \
+        if "min_segment_s" in section else MIN_SEGMENT_S
+    return family, rate, minimum
 
 
 # ---------------------------------------------------------------------------- entry points
@@ -364,10 +370,10 @@ def parse_task(data, *, name: str = "task", source: Path | None = None) -> Task:
                                   "acceleration_deg_s2 or jerk_deg_s3")
     if joints is not None:
         check_limit_counts(limits, joints.shape[1], "(one per joint)")
-    family, rate = _trajectory(document.get("trajectory"), "trajectory")
+    family, rate, min_segment = _trajectory(document.get("trajectory"), "trajectory")
     optimizer = _optimizer(document.get("optimizer"), "optimizer")
     label = _text(document["name"], "name") if "name" in document else name
-    return Task(label, joints, cartesian, robot, limits, family, rate, optimizer, source, ik, path)
+    return Task(label, joints, cartesian, robot, limits, family, rate, min_segment, optimizer, source, ik, path)
 
 
 def load_task(path) -> Task:
