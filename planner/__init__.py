@@ -1,16 +1,39 @@
-"""Time-optimal, limit-respecting joint trajectories through via-points."""
+"""Time-optimal, limit-respecting joint trajectories through via-points.
 
-from .errors import (IKError, InfeasibleError, InputError, PlannerError, RecordingError, RobotError,
+The public names below are imported on first use (PEP 562), so that
+``import planner`` (and the command line's start-up) stays light until
+Pinocchio, SciPy or CasADi are actually needed.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+from .errors import (IKError, InfeasibleError, InputError, OutputError, PlannerError, RecordingError, RobotError,
                      TaskError)
-from .kinematics import KinematicFigures, kinematic_figures
-from .limits import JointLimits, time_scale_factor
-from .splines import FAMILIES, PiecewisePolynomial, SplineFamily, get_family
-from .robot import Robot
-from .task import Task, load_task
-from .pipeline import PlanResult, plan
+
+#: public name -> the module that defines it
+_LAZY = {
+    "KinematicFigures": ".kinematics", "kinematic_figures": ".kinematics",
+    "JointLimits": ".limits", "time_scale_factor": ".limits",
+    "FAMILIES": ".splines", "PiecewisePolynomial": ".splines", "SplineFamily": ".splines", "get_family": ".splines",
+    "Robot": ".robot", "Task": ".task", "load_task": ".task", "PlanResult": ".pipeline", "plan": ".pipeline",
+}
 
 __all__ = [
-    "FAMILIES", "IKError", "InfeasibleError", "InputError", "JointLimits", "KinematicFigures",
+    "FAMILIES", "IKError", "InfeasibleError", "InputError", "JointLimits", "KinematicFigures", "OutputError",
     "PiecewisePolynomial", "PlanResult", "PlannerError", "RecordingError", "Robot", "RobotError", "SplineFamily",
     "Task", "TaskError", "get_family", "kinematic_figures", "load_task", "plan", "time_scale_factor",
 ]
+
+
+def __getattr__(name: str):
+    if name not in _LAZY:
+        raise AttributeError(f"module 'planner' has no attribute {name!r}")
+    value = getattr(importlib.import_module(_LAZY[name], __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

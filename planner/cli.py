@@ -1,42 +1,59 @@
 """Command line: ``planner plan | reproduce | replay``.
 
 Exit codes: 0 success, 2 bad input (any ``PlannerError`` about the input or
-an infeasible task), 1 anything else. Errors print one line on stderr.
+an infeasible task), 1 anything else, 130 on Ctrl-C, 143 on SIGTERM. Errors
+print one line on stderr. Output paths are checked before any work
+(``planner.outputs``); the heavy modules are imported only once the signal
+handlers are in place, so an interruption at any moment is one line too.
 """
 
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
+import threading
 from pathlib import Path
 
-import numpy as np
-
-from .errors import PlannerError
+from .errors import PlannerError, one_line
 from .progress import TerminalProgress
 
 
+class Terminated(BaseException):
+    """SIGTERM (``kill``, ``timeout``, ``docker stop``), raised so that every cleanup runs."""
+
+
+def _raise_terminated(signum, frame):
+    raise Terminated()
+
+
 def _plan(args) -> int:
+    from .outputs import output_folder
     from .pipeline import plan
     progress = TerminalProgress("optimizing", quiet=args.quiet)
-    result = plan(args.task, progress=progress)
-    out = result.save(args.out)
+    with output_folder(args.out, force=args.force) as staging:
+        result = plan(args.task, progress=progress)
+        result.write(staging)
+    out = Path(args.out)
     if not args.quiet:
         timing = ", ".join(f"{k} {v:.3f} s" for k, v in result.timings_s.items())
         print(f"{result.task.name}: {result.task.family}, total time {result.trajectory.total_time:.4f} s, "
               f"largest ratio {result.optimization.max_ratio:.4f}, feasible {result.optimization.feasible}")
         print(f"timings: {timing}")
-        print(f"outputs in {out}/: " + ", ".join(sorted(p.name for p in out.iterdir())))
+        print(f"outputs in {out}/: " + ", ".join(sorted(p.name for p in out.iterdir() if not p.name.startswith("."))))
         print(f"open the recording with: planner replay {out / 'trajectory.rrd'}  "
               f"(check it without a viewer: add --check)")
     return 0
 
 
 def _reproduce(args) -> int:
+    from .outputs import output_folder
     from .reproduce import run_all, write_report
     progress = TerminalProgress("reproduce", quiet=args.quiet)
-    runs = run_all(quick=args.quick, seed=args.seed, progress=progress)
-    out = write_report(runs, args.out)
+    with output_folder(args.out, force=args.force) as staging:
+        runs = run_all(quick=args.quick, seed=args.seed, progress=progress)
+        write_report(runs, staging)
+    out = Path(args.out)
     if not args.quiet:
         print((out / "reproduction.md").read_text())
         print(f"written: {out}/reproduction.md, reproduction.json, figure4.png")
@@ -44,7 +61,10 @@ def _reproduce(args) -> int:
 
 
 def _replay(args) -> int:
-    from .export import atomic_file, write_trajectory_csv
+    import numpy as np
+
+    from .export import write_trajectory_csv
+    from .outputs import atomic_file
     from .kinematics import kinematic_figures
     from .recording import read_recording
     recorded = read_recording(args.recording)
@@ -80,11 +100,15 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(dest="command", required=True)
     plan = commands.add_parser("plan", help="plan a task file and write the outputs")
     plan.add_argument("task", type=Path, help="YAML task file")
-    plan.add_argument("--out", type=Path, default=Path("out"), help="output folder (default: out)")
+    plan.add_argument("--out", default="out", help="output folder (default: out); created if absent, refused if "
+                                                   "it holds files the planner did not write (see --force)")
+    plan.add_argument("--force", action="store_true",
+                      help="write into a folder of other files: the planner's files are replaced, the rest kept")
     plan.add_argument("--quiet", action="store_true", help="print nothing on success")
     plan.set_defaults(run=_plan)
     reproduce = commands.add_parser("reproduce", help="reproduce the source paper's tables and figure")
-    reproduce.add_argument("--out", type=Path, default=Path("out/reproduce"))
+    reproduce.add_argument("--out", default="out/reproduce", help="output folder (default: out/reproduce)")
+    reproduce.add_argument("--force", action="store_true", help="write into a folder of other files (as plan --force)")
     reproduce.add_argument("--quick", action="store_true", help="small optimizer budgets (for tests)")
     reproduce.add_argument("--seed", type=int, default=0)
     reproduce.add_argument("--quiet", action="store_true")
@@ -99,8 +123,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
+    """Run the command line; returns the exit code (see the module docstring)."""
+    in_main_thread = threading.current_thread() is threading.main_thread()  # signals can be set only there
+    previous = signal.signal(signal.SIGTERM, _raise_terminated) if in_main_thread else None
+    debug = False
     try:
+        args = build_parser().parse_args(argv)
+        debug = args.debug
         return args.run(args)
     except PlannerError as exc:
         print(f"error: {exc}", file=sys.stderr)
@@ -108,11 +137,18 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    except Terminated:
+        print("terminated", file=sys.stderr)
+        return 143
     except Exception as exc:  # one line for the user; --debug for the traceback
-        if args.debug:
+        if debug:
             raise
-        print(f"internal error: {type(exc).__name__}: {exc} (run with --debug for details)", file=sys.stderr)
+        print(one_line(f"internal error: {type(exc).__name__}: {exc} (run with --debug for details)"),
+              file=sys.stderr)
         return 1
+    finally:
+        if in_main_thread:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

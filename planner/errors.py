@@ -95,6 +95,13 @@ class IKError(PlannerError):
         super().__init__(message)
 
 
+class OutputError(PlannerError):
+    """An output path that cannot be used: empty, a file where a folder is needed (or the
+    reverse), not writable, a folder of someone else's files, or one another run is writing."""
+
+    exit_code = 2
+
+
 class RecordingError(PlannerError):
     """A missing, corrupt or foreign Rerun recording."""
 

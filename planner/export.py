@@ -1,13 +1,9 @@
-"""Sampled and coefficient exports, and writing an output folder with nothing partial on failure."""
+"""Sampled and coefficient exports: trajectory.csv and coefficients.json."""
 
 from __future__ import annotations
 
 import csv
 import json
-import os
-import shutil
-import tempfile
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -72,37 +68,3 @@ def coefficients_document(trajectory: PiecewisePolynomial, joint_names: list[str
         "via_times_s": trajectory.via_times,
         "coefficients": trajectory.coefficients,
     }
-
-
-@contextmanager
-def atomic_file(path):
-    """Yield a temporary path beside ``path``; on success rename it to ``path``, else delete it."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    os.close(handle)
-    try:
-        yield Path(temporary)
-        os.replace(temporary, path)
-    finally:
-        if os.path.exists(temporary):
-            os.remove(temporary)
-
-
-@contextmanager
-def atomic_output_folder(out_dir):
-    """Yield a fresh temporary folder; on success move its files into ``out_dir``, else delete it.
-
-    Files are written beside ``out_dir`` and each moved with ``os.replace``,
-    so a failure leaves ``out_dir`` exactly as it was.
-    """
-    out_dir = Path(out_dir)
-    out_dir.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", dir=out_dir.parent))
-    try:
-        yield staging
-        out_dir.mkdir(exist_ok=True)
-        for item in staging.iterdir():
-            os.replace(item, out_dir / item.name)
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)

@@ -14,7 +14,8 @@ import numpy as np
 from .cartesian_path import StraightPath, follow_straight_lines, tool_deviation
 from .errors import IKError, InfeasibleError, PlannerError, RobotError, TaskError
 from .ik import IKSolution, pose_from_position_quaternion, solve_waypoints
-from .export import (atomic_output_folder, coefficients_document, write_json, write_trajectory_csv)
+from .export import coefficients_document, write_json, write_trajectory_csv
+from .outputs import output_folder
 from .kinematics import KinematicFigures, kinematic_figures
 from .limits import QUANTITIES, JointLimits
 from .progress import TerminalProgress
@@ -129,24 +130,30 @@ class PlanResult:
                                  self.path.inserted, self.path.max_distance_m, self.path.max_angle_rad))]}
         return summary
 
-    def save(self, out_dir) -> Path:
-        """Write summary.json, trajectory.csv, coefficients.json, profiles.png and trajectory.rrd.
+    def save(self, out_dir, *, force: bool = False) -> Path:
+        """Publish the outputs (``write``) in ``out_dir`` under the rules of ``planner.outputs``:
+        checked and locked first, staged beside it, swapped in as one step; nothing partial on failure.
 
-        All files are written to a temporary folder first and moved in only
-        when every one of them is complete.
+        Raises:
+            OutputError: an unusable ``out_dir`` (empty, a file, someone else's files without ``force``).
         """
-        out_dir = Path(out_dir)
+        with output_folder(out_dir, force=force) as staging:
+            self.write(staging)
+        return Path(out_dir)
+
+    def write(self, folder: Path) -> None:
+        """Write summary.json, trajectory.csv, coefficients.json, profiles.png and trajectory.rrd into
+        the existing ``folder`` (no atomicity of its own: ``save`` provides it)."""
+        folder = Path(folder)
         start = time.perf_counter()
-        with atomic_output_folder(out_dir) as staging:
-            write_trajectory_csv(staging / "trajectory.csv", self.trajectory, self.task.sample_rate_hz)
-            write_json(staging / "coefficients.json", coefficients_document(self.trajectory, self.joint_names))
-            plot_profiles(self.trajectory, self.limits, staging / "profiles.png",
-                          title=f"{self.task.name}: {self.task.family}, T = {self.trajectory.total_time:.3f} s",
-                          joint_names=self.joint_names)
-            write_recording(self, staging / "trajectory.rrd")
-            self.timings_s["outputs"] = time.perf_counter() - start
-            write_json(staging / "summary.json", self.summary())
-        return out_dir
+        write_trajectory_csv(folder / "trajectory.csv", self.trajectory, self.task.sample_rate_hz)
+        write_json(folder / "coefficients.json", coefficients_document(self.trajectory, self.joint_names))
+        plot_profiles(self.trajectory, self.limits, folder / "profiles.png",
+                      title=f"{self.task.name}: {self.task.family}, T = {self.trajectory.total_time:.3f} s",
+                      joint_names=self.joint_names)
+        write_recording(self, folder / "trajectory.rrd")
+        self.timings_s["outputs"] = time.perf_counter() - start
+        write_json(folder / "summary.json", self.summary())
 
 
 def robot_limits(robot: Robot, task: Task) -> JointLimits:

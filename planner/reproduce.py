@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from . import paper
-from .export import atomic_output_folder, write_json
+from .export import write_json
 from .kinematics import KinematicFigures, kinematic_figures
 from .limits import QUANTITIES
 from .progress import TerminalProgress
@@ -80,8 +80,9 @@ def _figures_block(title: str, figures: KinematicFigures, with_paper: bool) -> t
     return f"### {title}\n\n" + markdown_table(header, rows), data
 
 
-def write_report(runs: list[Run], out_dir) -> Path:
-    """reproduction.md, reproduction.json and the Figure 4 equivalent (figure4.png) in ``out_dir``."""
+def write_report(runs: list[Run], folder: Path) -> None:
+    """Write reproduction.md, reproduction.json and the Figure 4 equivalent (figure4.png) into the
+    existing ``folder`` (the CLI publishes it through ``planner.outputs.output_folder``)."""
     via = np.deg2rad(paper.VIA_POINTS_DEG)
     limits = paper.paper_limits()
     lines = ["# The paper reproduced", "",
@@ -125,20 +126,18 @@ def write_report(runs: list[Run], out_dir) -> Path:
                 f"Ours, hybrid, bounds {_bounds_label(bounds)}: T = {r.result.total_time:.4f} s",
                 kinematic_figures(get_family("hybrid").build(via, r.result.durations)), False)
             lines += [block, ""]
-    with atomic_output_folder(out_dir) as staging:
-        (staging / "reproduction.md").write_text("\n".join(lines) + "\n")
-        write_json(staging / "reproduction.json", {
-            "runs": [{"family": r.family, "bounds_s": r.bounds, "algorithm": r.algorithm,
-                      "durations_s": r.result.durations, "total_time_s": r.result.total_time,
-                      "max_ratio": r.result.max_ratio, "feasible": r.result.feasible,
-                      "evaluations": r.result.evaluations, "wall_time_s": r.result.wall_time_s,
-                      "seed": r.result.seed, "settings": r.result.settings} for r in runs],
-            "paper_durations": {"durations_s": paper.DURATIONS_S, "figures": paper_data},
-            "ours": ours_data,
-        })
-        if ("hybrid", None) in best_of:
-            r = best_of[("hybrid", None)]
-            plot_profiles(get_family("hybrid").build(via, r.result.durations), limits, staging / "figure4.png",
-                          title=f"Figure 4 equivalent: hybrid, no bounds, {OPTIMIZER_LABELS[r.algorithm]}, "
-                                f"T = {r.result.total_time:.3f} s")
-    return Path(out_dir)
+    (folder / "reproduction.md").write_text("\n".join(lines) + "\n")
+    write_json(folder / "reproduction.json", {
+        "runs": [{"family": r.family, "bounds_s": r.bounds, "algorithm": r.algorithm,
+                  "durations_s": r.result.durations, "total_time_s": r.result.total_time,
+                  "max_ratio": r.result.max_ratio, "feasible": r.result.feasible,
+                  "evaluations": r.result.evaluations, "wall_time_s": r.result.wall_time_s,
+                  "seed": r.result.seed, "settings": r.result.settings} for r in runs],
+        "paper_durations": {"durations_s": paper.DURATIONS_S, "figures": paper_data},
+        "ours": ours_data,
+    })
+    if ("hybrid", None) in best_of:
+        r = best_of[("hybrid", None)]
+        plot_profiles(get_family("hybrid").build(via, r.result.durations), limits, folder / "figure4.png",
+                      title=f"Figure 4 equivalent: hybrid, no bounds, {OPTIMIZER_LABELS[r.algorithm]}, "
+                            f"T = {r.result.total_time:.3f} s")

@@ -24,8 +24,8 @@ def small_task(tmp_path, **optimizer) -> Path:
 def test_plan_writes_consistent_outputs(tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["plan", str(small_task(tmp_path, bounds_s=[3, 5])), "--out", str(out)]) == 0
-    assert sorted(p.name for p in out.iterdir()) == ["coefficients.json", "profiles.png", "summary.json",
-                                                     "trajectory.csv", "trajectory.rrd"]
+    assert sorted(p.name for p in out.iterdir()) == [".planner-output", "coefficients.json", "profiles.png",
+                                                     "summary.json", "trajectory.csv", "trajectory.rrd"]
     summary = json.loads((out / "summary.json").read_text())
     assert summary["total_time_s"] == pytest.approx(27.0) and summary["feasible"] is True
     assert summary["optimizer"]["algorithm"] == "cuckoo" and summary["optimizer"]["evaluations"] > 0
@@ -57,13 +57,14 @@ def test_bad_task_exits_2_with_one_line_and_no_outputs(tmp_path, capsys):
 
 def test_infeasible_task_exits_2_and_keeps_existing_outputs(tmp_path, capsys):
     out = tmp_path / "out"
-    out.mkdir()
-    (out / "summary.json").write_text("previous")
+    assert main(["plan", str(small_task(tmp_path, bounds_s=[3, 5])), "--out", str(out), "--quiet"]) == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
     task = small_task(tmp_path, bounds_s=[0.1, 0.5])
     assert main(["plan", str(task), "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: infeasible even with every duration at h_max = 0.5 s: joint")
-    assert (out / "summary.json").read_text() == "previous" and [p.name for p in out.iterdir()] == ["summary.json"]
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "task.yaml"]
 
 
 def test_failure_while_writing_leaves_nothing(tmp_path, monkeypatch):

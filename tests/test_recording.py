@@ -23,8 +23,8 @@ def planned(request, tmp_path_factory):
 
 def test_every_output_exists_and_agrees(planned):
     result, out = planned
-    assert sorted(p.name for p in out.iterdir()) == ["coefficients.json", "profiles.png", "summary.json",
-                                                     "trajectory.csv", "trajectory.rrd"]
+    assert sorted(p.name for p in out.iterdir()) == [".planner-output", "coefficients.json", "profiles.png",
+                                                     "summary.json", "trajectory.csv", "trajectory.rrd"]
     summary = json.loads((out / "summary.json").read_text())
     assert summary["total_time_s"] == pytest.approx(sum(summary["durations_s"]))
     assert summary["robot"]["name"] == result.robot.name and len(summary["ik"]["waypoints"]) == len(result.ik)
@@ -103,7 +103,7 @@ def test_failure_midway_leaves_nothing(tmp_path, monkeypatch):
 def test_export_to_unwritable_place_leaves_nothing(planned, tmp_path, capsys):
     _, out = planned
     target = tmp_path / "x.csv"
-    target.mkdir()  # a folder where the file should go: the rename fails
-    assert main(["replay", str(out / "trajectory.rrd"), "--export-csv", str(target)]) == 1
+    target.mkdir()  # a folder where the file should go: refused before anything is written
+    assert main(["replay", str(out / "trajectory.rrd"), "--export-csv", str(target)]) == 2
     assert capsys.readouterr().err.count("\n") == 1
     assert [p.name for p in tmp_path.iterdir()] == ["x.csv"] and target.is_dir()

@@ -1,0 +1,268 @@
+"""Writing outputs without ever losing a user's file: one file, or a whole output folder.
+
+The rules for an output folder ``DIR`` (``planner plan --out DIR``,
+``PlanResult.save(DIR)``, ``planner reproduce --out DIR``), all checked
+before any work is done:
+
+* An empty path is refused: an unset shell variable must not mean "here".
+* ``DIR`` is an existing file, lies under one, or its nearest existing
+  ancestor is not a writable folder: refused.
+* ``DIR`` may be absent (it and its parents are created), empty, or a folder
+  the planner wrote: it holds the marker ``.planner-output``, which lists the
+  files published there, and nothing else. Any other folder is refused unless
+  ``force`` is given: then the outputs are moved into it one file at a time
+  (each move atomic), replacing files of the same names and keeping every
+  other file.
+* Otherwise publishing is one atomic step: the files are written to a staging
+  folder beside ``DIR`` (same parent, hence the same filesystem) and the
+  staging folder is swapped with ``DIR`` in one ``renameat2(RENAME_EXCHANGE)``
+  call (Linux); where the system cannot exchange, ``DIR`` is renamed aside and
+  the staging folder renamed in its place, so ``DIR`` never holds a mix of old
+  and new files. The current working folder and mount points cannot be
+  renamed: outputs go into them one file at a time.
+* While a plan runs, ``DIR`` is locked (``flock`` on ``.DIR.lock`` beside it):
+  a second writer fails at once instead of interleaving. Staging folders of a
+  killed run (``.DIR.staging-*``) are removed by the next run that takes the lock.
+* On any failure or interruption (an exception, Ctrl-C, SIGTERM turned into an
+  exception by the CLI) the staging folder, and any parent folder made for the
+  run, is deleted and ``DIR`` is left as it was.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import errno
+import fcntl
+import json
+import os
+import secrets
+import shutil
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Iterator
+
+from .errors import OutputError, shown
+
+MARKER = ".planner-output"
+_RENAME_EXCHANGE = 2
+_AT_FDCWD = -100
+
+
+def _absolute(path, what: str) -> Path:
+    """``path`` as an absolute path with symbolic links resolved; an empty path is refused."""
+    if path is None or str(path).strip() == "":
+        raise OutputError(f"{what} is empty (an unset shell variable?); give a path")
+    return Path(os.path.abspath(os.fspath(path))).resolve()
+
+
+def check_writable_location(path: Path, what: str) -> None:
+    """The nearest existing ancestor of ``path`` is a folder this process may write in.
+
+    Raises:
+        OutputError: an ancestor is a file, or the folder is not writable.
+    """
+    for ancestor in path.parents:
+        if ancestor.exists():
+            if not ancestor.is_dir():
+                raise OutputError(f"{what} {path} lies under {ancestor}, which is a file, not a folder")
+            if not os.access(ancestor, os.W_OK | os.X_OK):
+                raise OutputError(f"{what} {path}: cannot write in {ancestor} (permission denied)")
+            return
+
+
+def _listing(folder: Path) -> set[str]:
+    try:
+        return {entry.name for entry in folder.iterdir()}
+    except OSError as exc:
+        raise OutputError(f"output folder {folder}: cannot list it ({exc.strerror})") from None
+
+
+def _planner_files(folder: Path) -> set[str] | None:
+    """The files the marker says the planner published in ``folder``, or None without a valid marker."""
+    try:
+        files = json.loads((folder / MARKER).read_text()).get("files")
+    except (OSError, ValueError, AttributeError):
+        return None
+    return set(files) if isinstance(files, list) and all(isinstance(f, str) for f in files) else None
+
+
+def check_output_folder(path, *, force: bool = False) -> tuple[Path, bool]:
+    """Check ``path`` as an output folder before any work (the rules in the module docstring).
+
+    Returns:
+        The absolute folder, and whether the outputs must be merged into it file by file.
+
+    Raises:
+        OutputError: the path is empty, a file, under a file, not writable, or a
+            non-empty folder the planner did not write (without ``force``).
+    """
+    folder = _absolute(path, "output folder")
+    check_writable_location(folder, "output folder")
+    if not folder.exists():
+        return folder, False
+    if not folder.is_dir():
+        raise OutputError(f"output folder {folder} is an existing file; give a folder")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise OutputError(f"output folder {folder} is not writable")
+    present = _listing(folder)
+    owned = _planner_files(folder)
+    foreign = present - {MARKER} - (owned or set())
+    if foreign and not force:
+        names = ", ".join(sorted(foreign)[:5]) + (", ..." if len(foreign) > 5 else "")
+        raise OutputError(f"output folder {folder} holds files the planner did not write ({shown(names)}); "
+                          f"give an empty or new folder, or add --force to write into it (files of the same "
+                          f"names are replaced, others kept)")
+    cwd = Path.cwd().resolve()
+    in_place = bool(foreign) or folder == cwd or folder in cwd.parents or os.path.ismount(folder)
+    return folder, in_place
+
+
+class _Lock:
+    """An exclusive ``flock`` on ``.NAME.lock`` beside a folder, removed when released."""
+
+    def __init__(self, folder: Path):
+        self.path = folder.parent / f".{folder.name}.lock"
+        self.handle: int | None = None
+
+    def acquire(self) -> None:
+        while True:
+            handle = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
+            try:
+                fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                os.close(handle)
+                raise OutputError(f"output folder {self.path.parent / self.path.name[1:-5]} is being written by "
+                                  f"another planner process; wait for it or choose another folder") from None
+            try:  # the previous holder may have removed the file between our open and our lock
+                same = os.stat(self.path).st_ino == os.fstat(handle).st_ino
+            except FileNotFoundError:
+                same = False
+            if same:
+                self.handle = handle
+                return
+            os.close(handle)
+
+    def release(self) -> None:
+        if self.handle is not None:
+            try:
+                os.unlink(self.path)
+            except FileNotFoundError:
+                pass
+            os.close(self.handle)
+            self.handle = None
+
+
+def _exchange(first: Path, second: Path) -> bool:
+    """Swap two paths in one atomic step (Linux ``renameat2``); False where the system cannot."""
+    try:
+        renameat2 = ctypes.CDLL(None, use_errno=True).renameat2
+    except (AttributeError, OSError):
+        return False
+    if renameat2(_AT_FDCWD, os.fsencode(first), _AT_FDCWD, os.fsencode(second), _RENAME_EXCHANGE) == 0:
+        return True
+    code = ctypes.get_errno()
+    if code in (errno.ENOSYS, errno.EINVAL, errno.ENOTSUP, errno.EOPNOTSUPP):
+        return False
+    raise OSError(code, os.strerror(code), str(second))
+
+
+def _publish_whole(staging: Path, folder: Path) -> None:
+    """Make ``staging`` be ``folder`` in one step; the old ``folder`` (if any) is deleted after."""
+    if not folder.exists():
+        os.rename(staging, folder)
+        return
+    if _exchange(staging, folder):
+        shutil.rmtree(staging, ignore_errors=True)  # now the old contents
+        return
+    aside = folder.parent / f".{folder.name}.old-{secrets.token_hex(4)}"
+    os.rename(folder, aside)
+    try:
+        os.rename(staging, folder)
+    except OSError:
+        os.rename(aside, folder)
+        raise
+    shutil.rmtree(aside, ignore_errors=True)
+
+
+def _publish_in_place(staging: Path, folder: Path, stale: set[str]) -> None:
+    """Move each file of ``staging`` into ``folder`` (each move atomic); remove ``stale`` planner files."""
+    for item in staging.iterdir():
+        if item.name != MARKER:
+            os.replace(item, folder / item.name)
+    for name in stale:
+        (folder / name).unlink(missing_ok=True)
+    os.replace(staging / MARKER, folder / MARKER)
+
+
+def _write_marker(staging: Path) -> set[str]:
+    files = sorted(entry.name for entry in staging.iterdir())
+    (staging / MARKER).write_text(json.dumps({"written_by": "planner", "files": files}) + "\n")
+    return set(files)
+
+
+@contextmanager
+def output_folder(path, *, force: bool = False) -> Iterator[Path]:
+    """Check and lock ``path``, yield an empty staging folder, and publish it when the block succeeds.
+
+    Enter it before the work that produces the outputs: a bad path fails before
+    any computation, and the lock covers the whole run. On any exception
+    (including ``KeyboardInterrupt``) the staging folder is removed and the
+    destination is left as it was.
+
+    Raises:
+        OutputError: ``check_output_folder``'s errors, or another process writing the same folder.
+    """
+    folder, in_place = check_output_folder(path, force=force)
+    created = [ancestor for ancestor in folder.parents if not ancestor.exists()]  # deepest first
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    lock = _Lock(folder)
+    lock.acquire()
+    staging, published = None, False
+    try:
+        for stale in folder.parent.glob(f".{folder.name}.staging-*"):
+            shutil.rmtree(stale, ignore_errors=True)
+        folder, in_place = check_output_folder(folder, force=force)  # again, now that we hold the lock
+        base = folder if in_place and folder.exists() else folder.parent
+        staging = base / f".{folder.name}.staging-{secrets.token_hex(4)}"
+        os.mkdir(staging, 0o777)  # the umask applies, as to any folder the user makes
+        yield staging
+        written = _write_marker(staging)
+        if in_place:
+            folder.mkdir(exist_ok=True)
+            _publish_in_place(staging, folder, (_planner_files(folder) or set()) - written)
+        else:
+            _publish_whole(staging, folder)
+        published = True
+    finally:
+        if staging is not None:
+            shutil.rmtree(staging, ignore_errors=True)
+        lock.release()
+        if not published:  # parents made for this run go too: a failed run leaves no trace
+            for ancestor in created:
+                try:
+                    ancestor.rmdir()
+                except OSError:
+                    break
+
+
+@contextmanager
+def atomic_file(path) -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; on success rename it to ``path``, else delete it.
+
+    The file gets the permissions any new file of the user gets (0666 less the umask).
+
+    Raises:
+        OutputError: an empty path, a path that is a folder or lies under a file, or an unwritable folder.
+    """
+    target = _absolute(path, "output file")
+    if target.is_dir():
+        raise OutputError(f"output file {target} is an existing folder; give a file name")
+    check_writable_location(target, "output file")
+    target.parent.mkdir(parents=True, exist_ok=True)
+    temporary = target.parent / f".{target.name}.{secrets.token_hex(4)}.tmp"
+    os.close(os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+    try:
+        yield temporary
+        os.replace(temporary, target)
+    finally:
+        temporary.unlink(missing_ok=True)

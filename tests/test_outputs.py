@@ -1,0 +1,271 @@
+"""Output folders and files: checked before any work, locked, published in one step, never lose a file."""
+
+import os
+import signal
+import stat
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import yaml
+
+import planner.outputs as outputs
+from planner.cli import main
+from planner.errors import OutputError
+from planner.outputs import MARKER, atomic_file, output_folder
+
+ROOT = Path(__file__).resolve().parents[1]
+PAPER_JOINT = ROOT / "scripts" / "tasks" / "puma560_paper_joint.yaml"
+
+
+def write_outputs(path, files: dict[str, str], **options) -> None:
+    with output_folder(path, **options) as staging:
+        for name, text in files.items():
+            (staging / name).write_text(text)
+
+
+def contents(folder: Path) -> dict[str, str]:
+    return {p.name: p.read_text() for p in folder.iterdir()}
+
+
+def leftovers(parent: Path) -> list[str]:
+    return sorted(p.name for p in parent.iterdir() if ".staging-" in p.name or p.name.endswith(".lock")
+                  or ".old-" in p.name)
+
+
+@pytest.fixture
+def task(tmp_path) -> Path:
+    data = yaml.safe_load(PAPER_JOINT.read_text())
+    data["optimizer"] = {"algorithm": "cuckoo", "iterations": 3, "seed": 0, "bounds_s": [3, 5]}
+    path = tmp_path / "task.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+@pytest.fixture
+def no_planning(monkeypatch):
+    """Fail the test if the planner starts computing (path errors must come first)."""
+    import planner.pipeline as pipeline
+
+    def forbidden(*args, **kwargs):
+        raise AssertionError("planning started before the output path was checked")
+    monkeypatch.setattr(pipeline, "plan", forbidden)
+
+
+# ---------------------------------------------------------------- the rules
+
+
+@pytest.mark.parametrize("empty", ["", "   "])
+def test_empty_path_is_refused_and_nothing_is_written(tmp_path, monkeypatch, empty, no_planning, task, capsys):
+    monkeypatch.chdir(tmp_path)
+    before = sorted(os.listdir(tmp_path))
+    with pytest.raises(OutputError, match="empty"):
+        write_outputs(empty, {"a.txt": "x"})
+    assert main(["plan", str(task), "--out", empty]) == 2
+    assert "output folder is empty" in capsys.readouterr().err
+    assert sorted(os.listdir(tmp_path)) == before
+
+
+def test_existing_file_or_path_under_a_file_is_refused_before_planning(tmp_path, no_planning, task, capsys):
+    afile = tmp_path / "notes.txt"
+    afile.write_text("mine")
+    for out, message in ((afile, "is an existing file"), (afile / "sub", "lies under"),
+                         (afile / "a" / "b", "lies under")):
+        assert main(["plan", str(task), "--out", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and message in err and str(afile) in err
+    assert afile.read_text() == "mine"
+
+
+def test_folder_of_other_files_is_refused_unless_forced(tmp_path):
+    out = tmp_path / "results"
+    out.mkdir()
+    (out / "summary.json").write_text("the user's own")
+    (out / "thesis.tex").write_text("keep me")
+    with pytest.raises(OutputError, match=r"did not write \('summary.json, thesis.tex'\).*--force"):
+        write_outputs(out, {"summary.json": "new"})
+    assert contents(out) == {"summary.json": "the user's own", "thesis.tex": "keep me"}
+    write_outputs(out, {"summary.json": "new", "trajectory.csv": "t"}, force=True)
+    assert contents(out) | {MARKER: ""} == {"summary.json": "new", "trajectory.csv": "t", "thesis.tex": "keep me",
+                                            MARKER: ""}
+    assert leftovers(tmp_path) == []
+
+
+def test_planner_folder_is_replaced_whole_in_one_step(tmp_path):
+    out = tmp_path / "out"
+    write_outputs(out, {"a.txt": "1", "b.txt": "1"})
+    inode = out.stat().st_ino
+    write_outputs(out, {"a.txt": "2", "c.txt": "2"})
+    assert contents(out) == {"a.txt": "2", "c.txt": "2", MARKER: (out / MARKER).read_text()}
+    assert out.stat().st_ino != inode  # a new folder took the old one's place: no file-by-file moves
+    assert leftovers(tmp_path) == [] and sorted(os.listdir(tmp_path)) == ["out"]
+
+
+def test_a_file_added_by_the_user_to_a_planner_folder_is_never_deleted(tmp_path):
+    out = tmp_path / "out"
+    write_outputs(out, {"a.txt": "1"})
+    (out / "my_notes.txt").write_text("mine")
+    with pytest.raises(OutputError, match="my_notes.txt"):
+        write_outputs(out, {"a.txt": "2"})
+    assert (out / "my_notes.txt").read_text() == "mine" and (out / "a.txt").read_text() == "1"
+
+
+def test_empty_existing_folder_and_missing_parents_are_fine(tmp_path):
+    (tmp_path / "empty").mkdir()
+    write_outputs(tmp_path / "empty", {"a.txt": "1"})
+    write_outputs(tmp_path / "x" / "y" / "z", {"a.txt": "1"})
+    assert (tmp_path / "empty" / "a.txt").exists() and (tmp_path / "x" / "y" / "z" / "a.txt").exists()
+
+
+def test_current_folder_is_written_in_place_and_stays_usable(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    write_outputs(".", {"a.txt": "1"})
+    write_outputs(".", {"a.txt": "2", "b.txt": "2"})
+    assert Path.cwd().samefile(tmp_path) and (tmp_path / "a.txt").read_text() == "2"
+    write_outputs(".", {"b.txt": "3"})
+    assert not (tmp_path / "a.txt").exists()  # the planner's own stale file goes, as in a whole swap
+    assert leftovers(tmp_path) == []
+
+
+# ---------------------------------------------------------------- faults
+
+
+def test_failure_inside_the_block_keeps_the_old_outputs(tmp_path):
+    out = tmp_path / "out"
+    write_outputs(out, {"a.txt": "old"})
+    with pytest.raises(RuntimeError):
+        with output_folder(out) as staging:
+            (staging / "a.txt").write_text("new")
+            raise RuntimeError("disk full")
+    assert (out / "a.txt").read_text() == "old" and leftovers(tmp_path) == []
+
+
+def test_failed_run_removes_the_parents_it_made(tmp_path):
+    (tmp_path / "a").mkdir()
+    with pytest.raises(RuntimeError):
+        with output_folder(tmp_path / "a" / "b" / "c" / "out"):
+            raise RuntimeError("infeasible")
+    assert sorted(os.listdir(tmp_path)) == ["a"] and os.listdir(tmp_path / "a") == []
+
+
+@pytest.mark.parametrize("exchange_available", [True, False])
+def test_failing_publish_keeps_the_old_outputs(tmp_path, monkeypatch, exchange_available):
+    out = tmp_path / "out"
+    write_outputs(out, {"a.txt": "old"})
+    real_rename = os.rename
+
+    def failing_exchange(first, second):
+        raise OSError(5, "Input/output error")
+
+    def failing_second_rename(source, target):
+        if ".staging-" in str(source):
+            raise OSError(5, "Input/output error")
+        real_rename(source, target)
+    if exchange_available:
+        monkeypatch.setattr(outputs, "_exchange", failing_exchange)
+    else:
+        monkeypatch.setattr(outputs, "_exchange", lambda first, second: False)
+        monkeypatch.setattr(outputs.os, "rename", failing_second_rename)
+    with pytest.raises(OSError):
+        write_outputs(out, {"a.txt": "new"})
+    assert contents(out) == {"a.txt": "old", MARKER: (out / MARKER).read_text()}
+    monkeypatch.undo()
+    assert leftovers(tmp_path) == []
+
+
+def test_without_exchange_the_fallback_still_publishes_whole(tmp_path, monkeypatch):
+    monkeypatch.setattr(outputs, "_exchange", lambda first, second: False)
+    out = tmp_path / "out"
+    write_outputs(out, {"a.txt": "1"})
+    write_outputs(out, {"b.txt": "2"})
+    assert sorted(os.listdir(out)) == [MARKER, "b.txt"] and leftovers(tmp_path) == []
+
+
+def test_a_second_writer_is_refused_while_the_first_holds_the_folder(tmp_path, task, capsys):
+    out = tmp_path / "out"
+    with output_folder(out) as staging:
+        (staging / "a.txt").write_text("first")
+        assert main(["plan", str(task), "--out", str(out)]) == 2
+        assert "being written by another planner process" in capsys.readouterr().err
+        with pytest.raises(OutputError, match="another planner process"):
+            write_outputs(out, {"a.txt": "second"})
+    assert (out / "a.txt").read_text() == "first" and leftovers(tmp_path) == []
+
+
+def test_staging_left_by_a_killed_run_is_removed_by_the_next(tmp_path):
+    stale = tmp_path / ".out.staging-deadbeef"
+    stale.mkdir()
+    (stale / "half.csv").write_text("1,2")
+    write_outputs(tmp_path / "out", {"a.txt": "1"})
+    assert leftovers(tmp_path) == []
+
+
+def test_sigterm_while_planning_cleans_up_and_exits_143(tmp_path, task):
+    out = tmp_path / "out"
+    process = subprocess.Popen([sys.executable, "-m", "planner.cli", "plan", str(task), "--out", str(out)],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 30
+    while not list(tmp_path.glob(".out.staging-*")) and process.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.005)
+    assert process.poll() is None, "the plan finished before it could be interrupted"
+    process.send_signal(signal.SIGTERM)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 143 and err == "terminated\n"
+    assert not out.exists() and leftovers(tmp_path) == []
+
+
+def test_output_on_another_filesystem(tmp_path):
+    shm = Path("/dev/shm")
+    if not shm.is_dir() or not os.access(shm, os.W_OK) or shm.stat().st_dev == tmp_path.stat().st_dev:
+        pytest.skip("no second writable filesystem")
+    out = shm / f"planner-test-{os.getpid()}"
+    try:
+        write_outputs(out, {"a.txt": "1"})
+        write_outputs(out, {"a.txt": "2"})
+        assert (out / "a.txt").read_text() == "2"
+        assert not [p for p in shm.iterdir() if p.name.startswith(f".{out.name}.")]
+    finally:
+        import shutil
+        shutil.rmtree(out, ignore_errors=True)
+
+
+# ---------------------------------------------------------------- permissions and single files
+
+
+def test_published_files_and_folder_follow_the_umask(tmp_path):
+    previous = os.umask(0o022)
+    try:
+        write_outputs(tmp_path / "out", {"a.txt": "1"})
+        with atomic_file(tmp_path / "export.csv") as staging:
+            staging.write_text("t\n")
+    finally:
+        os.umask(previous)
+    assert stat.S_IMODE((tmp_path / "out").stat().st_mode) == 0o755
+    assert stat.S_IMODE((tmp_path / "out" / "a.txt").stat().st_mode) == 0o644
+    assert stat.S_IMODE((tmp_path / "export.csv").stat().st_mode) == 0o644
+
+
+def test_atomic_file_refuses_folders_and_paths_under_files(tmp_path):
+    (tmp_path / "folder").mkdir()
+    (tmp_path / "file").write_text("mine")
+    for target, message in ((tmp_path / "folder", "existing folder"), (tmp_path / "file" / "x.csv", "lies under"),
+                            ("", "empty")):
+        with pytest.raises(OutputError, match=message):
+            with atomic_file(target):
+                raise AssertionError("the block must not run")
+    assert sorted(os.listdir(tmp_path)) == ["file", "folder"] and (tmp_path / "file").read_text() == "mine"
+
+
+def test_python_api_save_follows_the_same_rules(tmp_path, task):
+    from planner import plan
+    result = plan(task)
+    with pytest.raises(OutputError, match="empty"):
+        result.save("")
+    (tmp_path / "theirs").mkdir()
+    (tmp_path / "theirs" / "x").write_text("x")
+    with pytest.raises(OutputError, match="--force"):
+        result.save(tmp_path / "theirs")
+    result.save(tmp_path / "theirs", force=True)
+    assert (tmp_path / "theirs" / "x").read_text() == "x" and (tmp_path / "theirs" / "summary.json").exists()
