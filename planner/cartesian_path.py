@@ -20,7 +20,9 @@ from it by two numbers, each exact (``segment_deviation``):
 inserts poses along each segment (IK seeded from the neighbouring
 configurations, so the branch is kept), times the via-points, samples the
 tool by forward kinematics at ``CHECK_RATE_HZ`` (and at least
-``CHECK_SAMPLES`` per via-point interval), inserts the midpoint of every
+``CHECK_SAMPLES`` per via-point interval; a trajectory so long that this
+would exceed ``MAX_CHECK_SAMPLES`` is sampled more sparsely, down to that
+count), inserts the midpoint of every
 interval whose tool strays beyond ``MARGIN`` of a tolerance, and repeats until
 none does. The margin covers what lies between samples.
 """
@@ -42,6 +44,8 @@ from .splines import PiecewisePolynomial
 CHECK_RATE_HZ = 250.0
 #: At least this many samples per via-point interval.
 CHECK_SAMPLES = 8
+#: At most about this many samples at ``CHECK_RATE_HZ`` for the whole trajectory (the rate drops beyond).
+MAX_CHECK_SAMPLES = 200_000
 #: Poses are inserted until the sampled deviation is within this fraction of each tolerance.
 MARGIN = 0.95
 #: A segment is given up when two consecutive poses on it are closer than this (fraction of it).
@@ -106,8 +110,9 @@ def tool_deviation(robot: Robot, trajectory: PiecewisePolynomial, poses: list[pi
     intervals = len(times) - 1
     segment_of = np.searchsorted(waypoint_via, np.arange(intervals), side="right") - 1
     distance, angle = np.zeros(intervals), np.zeros(intervals)
+    rate = min(CHECK_RATE_HZ, MAX_CHECK_SAMPLES / trajectory.total_time)
     for k in range(intervals):
-        count = max(CHECK_SAMPLES, int(np.ceil((times[k + 1] - times[k]) * CHECK_RATE_HZ))) + 1
+        count = max(CHECK_SAMPLES, int(np.ceil((times[k + 1] - times[k]) * rate))) + 1
         q = trajectory.evaluate(np.linspace(times[k], times[k + 1], count))
         frames = [robot.forward_kinematics(qi) for qi in q]
         i = segment_of[k]

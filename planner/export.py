@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import csv
 import json
 from pathlib import Path
 
@@ -34,16 +33,26 @@ def write_json(path: Path, data) -> None:
     path.write_text(json.dumps(json_ready(data), indent=2) + "\n")
 
 
+#: Rows sampled and written at once by ``write_trajectory_csv`` (bounds its memory).
+CSV_CHUNK_ROWS = 20_000
+
+
 def write_trajectory_csv(path: Path, trajectory: PiecewisePolynomial, rate_hz: float) -> None:
-    """Samples at ``rate_hz``: time [s], then position, velocity, acceleration, jerk per joint [deg-based]."""
-    times, values = trajectory.sample(rate_hz)
+    """Samples at ``rate_hz``: time [s], then position, velocity, acceleration, jerk per joint [deg-based].
+
+    Written ``CSV_CHUNK_ROWS`` rows at a time, so memory stays flat whatever the length.
+    """
+    times = trajectory.sample_times(rate_hz)
     joints = trajectory.joint_count
     header = ["time_s"] + [f"{name}{j + 1}_{unit}" for name, unit in _QUANTITY_COLUMNS for j in range(joints)]
-    table = np.column_stack([times] + [np.rad2deg(values[k]) for k in range(4)])
+    row = ",".join(["%.10g"] * len(header)) + "\n"
     with path.open("w", newline="") as handle:
-        writer = csv.writer(handle)
-        writer.writerow(header)
-        writer.writerows(np.char.mod("%.10g", table).tolist())
+        handle.write(",".join(header) + "\n")
+        for first in range(0, len(times), CSV_CHUNK_ROWS):
+            chunk = times[first:first + CSV_CHUNK_ROWS]
+            values = np.rad2deg(trajectory.states(chunk))
+            table = np.column_stack([chunk] + list(values))
+            handle.write((row * len(table)) % tuple(table.ravel().tolist()))
 
 
 def read_trajectory_csv(path: Path) -> tuple[np.ndarray, np.ndarray]:
@@ -54,17 +63,26 @@ def read_trajectory_csv(path: Path) -> tuple[np.ndarray, np.ndarray]:
 
 
 def coefficients_document(trajectory: PiecewisePolynomial, joint_names: list[str] | None = None) -> dict:
-    """The piecewise polynomial for controllers, SI units.
+    """The piecewise polynomial for controllers, SI units, in two equivalent bases.
 
-    Segment k covers [knot_times[k], knot_times[k+1]]; joint j there is
-    q(t) = sum_i c[k][j][i] (t - knot_times[k])^i [rad].
+    Segment k covers [knot_times[k], knot_times[k+1]], of duration h_k; joint j there is
+    q(t) = sum_i c[k][j][i] (t - knot_times[k])^i [rad]  (``coefficients``, local time), and
+    q(t) = sum_i b[k][j][i] s^i with s = (t - knot_times[k]) / h_k in [0, 1]
+    (``normalized_coefficients``, b_i = c_i h_k^i). The normalized ones stay of the size of
+    the motion [rad] however short a segment is (local-time ones grow like h_k^-i), so they
+    are the better-conditioned form to store or send; derivatives are b-based ones divided by h_k^d.
     """
+    durations = trajectory.durations
+    normalized = trajectory.coefficients * durations[:, None, None] ** np.arange(trajectory.coefficients.shape[-1])
     return {
         "format": "piecewise-polynomial/v1",
         "units": {"time": "s", "position": "rad"},
         "basis": "power series in local time tau = t - knot_times[k], lowest order first",
+        "normalized_basis": "power series in s = (t - knot_times[k]) / durations_s[k] in [0, 1], lowest order first",
         "joint_names": joint_names or [f"joint{j + 1}" for j in range(trajectory.joint_count)],
         "knot_times_s": trajectory.knot_times,
+        "durations_s": durations,
         "via_times_s": trajectory.via_times,
         "coefficients": trajectory.coefficients,
+        "normalized_coefficients": normalized,
     }

@@ -22,7 +22,7 @@ from .progress import TerminalProgress
 from .recording import write_recording
 from .report import plot_profiles
 from .robot import Robot, load_robot
-from .splines import PiecewisePolynomial
+from .splines import MAX_SAMPLES, PiecewisePolynomial
 from .task import Task, check_limit_counts, load_task
 from .timing import OptimizationResult, TimingProblem, optimize
 
@@ -156,6 +156,35 @@ class PlanResult:
         write_json(folder / "summary.json", self.summary())
 
 
+def check_sample_count(task: Task, total_time: float, *, lower_bound: bool = False) -> None:
+    """Refuse a trajectory whose outputs at ``trajectory.sample_rate_hz`` would exceed ``MAX_SAMPLES`` samples.
+
+    Args:
+        total_time: the trajectory's duration [s], or (``lower_bound``) a lower bound on it,
+            so that a hopeless task is refused before it is timed.
+
+    Raises:
+        TaskError: naming ``trajectory.sample_rate_hz``, the duration and the sample count.
+    """
+    count = total_time * task.sample_rate_hz
+    if count >= MAX_SAMPLES:
+        what = "at least" if lower_bound else "the"
+        raise TaskError("trajectory.sample_rate_hz",
+                        f"{task.sample_rate_hz:g} Hz over {what} {total_time:.6g} s of trajectory makes {count:.3g} "
+                        f"samples per output, above the cap of {MAX_SAMPLES:,}; lower the rate or check the "
+                        f"limits and duration bounds (they make the trajectory this long)")
+
+
+def shortest_total_time(via: np.ndarray, limits: JointLimits, task: Task) -> float:
+    """A lower bound on any trajectory's duration [s] through ``via`` (n, J) [rad] in order:
+    each step takes at least max_j |dq_j| / V_j, and every segment between distinct
+    via-points at least the minimum segment duration (and h_min)."""
+    steps = np.abs(np.diff(via, axis=0))
+    distinct = int(np.count_nonzero(steps.max(axis=1) > 0))
+    floor = max(task.min_segment_s, (task.optimizer["bounds"] or (0.0,))[0])
+    return max(float((steps / limits.velocity).max(axis=1).sum()), distinct * floor)
+
+
 def robot_limits(robot: Robot, task: Task) -> JointLimits:
     """The robot's limits with the task's overrides; acceleration and jerk limits must exist."""
     check_limit_counts(task.limits, robot.dof, f"for robot {robot.name!r}")
@@ -211,13 +240,15 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
     if robot is None:
         limits = JointLimits.create(via.shape[1], **task.limits)
 
+    check_sample_count(task, shortest_total_time(via, limits, task), lower_bound=True)
     start = time.perf_counter()
     settings = task.optimizer
     progress.label = f"optimizing ({settings['algorithm']})"
 
     def time_via_points(points: np.ndarray) -> tuple[PiecewisePolynomial, tuple[TimingProblem, OptimizationResult]]:
         problem = TimingProblem(points, task.family, limits, bounds=settings["bounds"],
-                                objective=settings["objective"], weights=settings["weights"])
+                                objective=settings["objective"], weights=settings["weights"],
+                                min_duration=task.min_segment_s)
         result = optimize(problem, settings["algorithm"], seed=settings["seed"], progress=progress,
                           **settings["settings"])
         if not result.feasible:
@@ -255,5 +286,6 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
             *_, distance, angle = tool_deviation(robot, trajectory, poses, waypoints)
             path = StraightPath(via, waypoints, np.zeros(len(poses) - 1, dtype=int), distance, angle, 1)
     timings["optimization"] = time.perf_counter() - start
+    check_sample_count(task, trajectory.total_time)
     figures = kinematic_figures(trajectory)
     return PlanResult(task, via, limits, result, trajectory, figures, timings, robot, ik, path, branch_times)

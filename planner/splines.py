@@ -25,6 +25,10 @@ from scipy.linalg import solve_banded
 from .errors import InputError
 from .validate import finite_array, positive_durations
 
+#: Most samples ``PiecewisePolynomial.sample`` makes (each sample holds 4 x J floats): a cap on
+#: memory whatever the trajectory's length and the sample rate.
+MAX_SAMPLES = 1_000_000
+
 
 @dataclass(frozen=True)
 class PiecewisePolynomial:
@@ -85,20 +89,36 @@ class PiecewisePolynomial:
         coefficients = derivative_coefficients(self.coefficients, order)[segment]  # (N, J, k+1)
         return polyval(coefficients, tau[:, None, None])[..., 0]
 
+    def sample_times(self, rate_hz: float) -> np.ndarray:
+        """(N,) times [s] at ``rate_hz`` [Hz] from 0 to T inclusive (T appended when the rate misses it).
+
+        Raises:
+            InputError: a rate that is not > 0, or more than ``MAX_SAMPLES`` samples.
+        """
+        if not np.isfinite(rate_hz) or rate_hz <= 0:
+            raise InputError(f"sample rate must be > 0 Hz, got {rate_hz}")
+        if self.total_time * rate_hz >= MAX_SAMPLES:
+            raise InputError(f"sampling the {self.total_time:.6g} s trajectory at {rate_hz:g} Hz makes "
+                             f"{self.total_time * rate_hz:.3g} samples, above the cap of {MAX_SAMPLES:,}")
+        count = int(np.floor(self.total_time * rate_hz + 1e-9)) + 1
+        times = np.arange(count) / rate_hz
+        if times[-1] < self.total_time - 1e-12:
+            times = np.append(times, self.total_time)
+        return times
+
     def sample(self, rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
-        """Sample at ``rate_hz`` [Hz] from 0 to T inclusive.
+        """Sample at ``rate_hz`` [Hz] from 0 to T inclusive (``sample_times``).
 
         Returns:
             times (N,) [s] and values (4, N, J): position [rad], velocity [rad/s],
             acceleration [rad/s^2] and jerk [rad/s^3].
         """
-        if not np.isfinite(rate_hz) or rate_hz <= 0:
-            raise InputError(f"sample rate must be > 0 Hz, got {rate_hz}")
-        count = int(np.floor(self.total_time * rate_hz + 1e-9)) + 1
-        times = np.arange(count) / rate_hz
-        if times[-1] < self.total_time - 1e-12:
-            times = np.append(times, self.total_time)
-        return times, np.stack([self.evaluate(times, order) for order in range(4)])
+        times = self.sample_times(rate_hz)
+        return times, self.states(times)
+
+    def states(self, times) -> np.ndarray:
+        """(4, N, J) position [rad], velocity [rad/s], acceleration [rad/s^2] and jerk [rad/s^3] at ``times``."""
+        return np.stack([self.evaluate(times, order) for order in range(4)])
 
 
 def derivative_coefficients(coefficients: np.ndarray, order: int) -> np.ndarray:

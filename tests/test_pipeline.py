@@ -13,6 +13,7 @@ from planner.task import load_task, parse_task
 
 ROOT = Path(__file__).resolve().parents[1]
 TASKS = ROOT / "scripts" / "tasks"
+PAPER_JOINT = TASKS / "puma560_paper_joint.yaml"
 
 
 def test_paper_cartesian_task_recovers_table_ii():
@@ -113,3 +114,18 @@ def test_unreachable_pose_exits_2_with_one_line(tmp_path, capsys):
 def test_bundled_tasks_load():
     for path in sorted(TASKS.glob("*.yaml")):
         assert load_task(path).name == path.stem
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"trajectory": {"sample_rate_hz": 1e9}}, r"1e\+09 Hz over at least [\d.]+ s of trajectory makes"),
+    ({"limits": {"velocity_deg_s": [1e-4] * 6}}, r"100 Hz over at least [\d.e+]+ s of trajectory makes"),
+    ({"limits": {"acceleration_deg_s2": [1e-5] * 6}}, r"100 Hz over the [\d.e+]+ s of trajectory makes"),
+])
+def test_too_many_samples_are_refused_naming_the_key(change, message):
+    data = yaml.safe_load(PAPER_JOINT.read_text())
+    data.pop("optimizer", None)  # no duration bounds: the limits alone set the length
+    for section, values in change.items():
+        data.setdefault(section, {}).update(values)
+    task = parse_task(data, name="long")
+    with pytest.raises(TaskError, match=r"^trajectory\.sample_rate_hz: " + message + r" .* above the cap"):
+        plan(task)

@@ -146,3 +146,44 @@ def test_bad_optimizer_requests(paper_problem):
 def test_wrong_joint_count_in_limits():
     with pytest.raises(InputError, match="limits are for 2 joints, via-points have 6"):
         TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", JointLimits.create(2, velocity=[1, 1]))
+
+
+TINY_WALK = np.linspace(-0.00038593, 0.00425594, 10)[:, None].repeat(3, axis=1)  # toppra's small_joint_1 shape
+
+
+@pytest.mark.parametrize("family", ["cubic", "hybrid", "quintic"])
+@pytest.mark.parametrize("algorithm", sorted(OPTIMIZERS))
+def test_every_optimizer_keeps_the_minimum_segment_duration(family, algorithm):
+    """A tiny motion under loose limits: without a floor the optimum has nanosecond segments;
+    with one, every optimizer returns durations >= the floor that pass the exact check."""
+    limits = JointLimits.create(3, velocity=[100.0] * 3, acceleration=[100.0] * 3)
+    bounds = (1e-4, 0.1) if algorithm == "cuckoo-paper" else None
+    problem = TimingProblem(TINY_WALK, family, limits, min_duration=2e-3, bounds=bounds)
+    settings = {"iterations": 3} if algorithm in ("cuckoo", "cuckoo-paper", "pso") else {}
+    result = optimize(problem, algorithm, seed=0, **settings)
+    assert result.feasible and result.durations.min() >= 2e-3 * (1 - 1e-9)
+    figures = kinematic_figures(problem.trajectory(result.durations))
+    assert not figures.violations(limits)
+
+
+def test_minimum_segment_duration_costs_time_only_where_it_binds():
+    limits = JointLimits.create(3, velocity=[100.0] * 3, acceleration=[100.0] * 3)
+    free = optimize(TimingProblem(TINY_WALK, "hybrid", limits), "nlp")
+    floored = optimize(TimingProblem(TINY_WALK, "hybrid", limits, min_duration=1e-3), "nlp")
+    assert free.durations.min() < 1e-6  # the degenerate optimum the floor exists for
+    assert floored.durations.min() == pytest.approx(1e-3, rel=1e-6) and floored.total_time > free.total_time
+    paper_free = optimize(TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", paper.paper_limits()), "nlp")
+    paper_floored = optimize(TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", paper.paper_limits(),
+                                           min_duration=1e-3), "nlp")
+    assert paper_floored.total_time == pytest.approx(paper_free.total_time, rel=1e-9)
+
+
+def test_minimum_segment_duration_is_checked():
+    limits = paper.paper_limits()
+    via = np.deg2rad(paper.VIA_POINTS_DEG)
+    with pytest.raises(InputError, match="minimum segment duration 6 s exceeds the upper duration bound 5 s"):
+        TimingProblem(via, "hybrid", limits, bounds=(3, 5), min_duration=6)
+    with pytest.raises(InputError, match="min_duration must be >= 0"):
+        TimingProblem(via, "hybrid", limits, min_duration=-1)
+    repaired = TimingProblem(via, "hybrid", limits, min_duration=4.0).evaluate(np.full((1, 9), 0.5))
+    assert repaired.feasible[0] and repaired.durations.min() >= 4.0

@@ -64,7 +64,7 @@ class _Model:
 def refine(problem: TimingProblem, start: np.ndarray, tracker: SearchTracker, max_iterations: int = 20) -> None:
     """Run SLSQP from durations ``start`` (S,) [s] and offer its repaired result to ``tracker``."""
     model = _Model(problem, tracker)
-    lower = problem.bounds[0] if problem.bounds else 1e-3 * float(start.min())
+    lower = max(problem.duration_floor, 0.0 if problem.bounds else 1e-3 * float(start.min()))
     upper = problem.bounds[1] if problem.bounds else None
     solution = minimize(
         lambda x: model.at(x).f, start, jac=lambda x: model.at(x).df, method="SLSQP",

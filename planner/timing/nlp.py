@@ -362,10 +362,8 @@ class _Program:
         if problem.uses_jerk_energy:
             k_t, k_j = problem.weights
             objective = objective + (k_j / k_t) * _jerk_energy(ca, spline.blocks, h)
-        if problem.bounds is not None:
-            h_low, h_high = np.array(problem.bounds) / scales.time
-        else:
-            h_low, h_high = DURATION_FLOOR, np.inf
+        h_high = problem.bounds[1] / scales.time if problem.bounds is not None else np.inf
+        h_low = max(problem.duration_floor / scales.time, 0.0 if problem.bounds is not None else DURATION_FLOOR)
         size = extra.shape[0]
         self.lbx = np.concatenate((np.full(segments, h_low), spline.lower, np.zeros(size)))
         self.ubx = np.concatenate((np.full(segments, h_high), spline.upper, np.full(size, np.inf)))

@@ -3,7 +3,17 @@
 Given joint via-points, a spline family and limits, find segment durations h
 minimising ``time`` (f = sum h) or ``time-jerk`` (f = K_t sum h + K_j sum_j
 integral q_j'''^2 dt) subject to every constraint ratio <= 1, the position
-range, and optional bounds h_min <= h_k <= h_max.
+range, optional bounds h_min <= h_k <= h_max, and a minimum segment duration
+h_k >= h_floor (default 0; the planner passes ``trajectory.min_segment_s``).
+
+Minimum segment duration. Without it the optimum of a tiny motion can put
+nanosecond segments (the 7th-order ends of ``hybrid`` reach their jerk
+limit within them), far below any controller period. Every optimizer sees
+the floor: it is a variable bound of the NLP and of SLSQP, and the repair
+below enforces it for the population methods: repaired durations below it
+are raised to it and the whole vector is then scaled up until every limit
+holds again (scaling up never breaks a limit, by the lemma, and never
+breaks the floor).
 
 The time-scaling lemma (spec §4) turns this into an unconstrained search over
 *shapes*: any candidate x is repaired in closed form to the feasible, tight
@@ -77,6 +87,7 @@ class TimingProblem:
         family: a ``SplineFamily`` or its name.
         limits: ``JointLimits`` (SI); at least one magnitude limit or a lower bound is needed.
         bounds: optional (h_min, h_max) [s] for every segment duration.
+        min_duration: the shortest segment duration allowed [s] (>= 0), with or without bounds.
         objective: ``"time"`` or ``"time-jerk"``.
         weights: (K_t, K_j) of the ``time-jerk`` objective [1/s, s^5/rad^2].
 
@@ -88,7 +99,7 @@ class TimingProblem:
 
     def __init__(self, via_points, family: SplineFamily | str, limits: JointLimits, *,
                  bounds: tuple[float, float] | None = None, objective: str = "time",
-                 weights: tuple[float, float] = (1.0, 1.0)):
+                 weights: tuple[float, float] = (1.0, 1.0), min_duration: float = 0.0):
         self.family = get_family(family) if isinstance(family, str) else family
         given, _ = self.family.check(via_points, np.ones(self.family.segment_count(len(via_points))))
         self.given_via_points = given
@@ -104,6 +115,14 @@ class TimingProblem:
             raise InputError(f"weights (K_t, K_j) must be two numbers with K_t > 0, K_j >= 0, got {weights}")
         self.weights = (float(weights_array[0]), float(weights_array[1]))
         self.bounds = None if bounds is None else self._check_bounds(bounds)
+        floor = finite_array("min_duration", [min_duration], 1)[0]
+        if floor < 0:
+            raise InputError(f"min_duration must be >= 0 s, got {floor:g}")
+        if self.bounds is not None and floor > self.bounds[1]:
+            raise InputError(f"the minimum segment duration {floor:g} s exceeds the upper duration bound "
+                             f"{self.bounds[1]:g} s")
+        #: Smallest duration of any segment [s]: the larger of h_min and the minimum segment duration.
+        self.duration_floor = max(float(floor), self.bounds[0] if self.bounds is not None else 0.0)
         if not np.isfinite(limits.magnitudes).any() and self.bounds is None:
             raise InputError("no velocity, acceleration or jerk limit and no duration bounds: "
                              "the minimum time is unbounded below")
@@ -156,10 +175,10 @@ class TimingProblem:
     def search_box(self) -> tuple[np.ndarray, np.ndarray]:
         """(lower, upper) corners of the box the optimizers search, each (S,).
 
-        With bounds: the bounds [s]. Without: shapes in [SHAPE_FLOOR, 1], which
+        With bounds: [duration_floor, h_max] [s]. Without: shapes in [SHAPE_FLOOR, 1], which
         the repair scales to durations.
         """
-        lower, upper = self.bounds if self.bounds is not None else (SHAPE_FLOOR, 1.0)
+        lower, upper = (self.duration_floor, self.bounds[1]) if self.bounds is not None else (SHAPE_FLOOR, 1.0)
         return np.full(self.segment_count, lower), np.full(self.segment_count, upper)
 
     def to_search_space(self, durations: np.ndarray) -> np.ndarray:
@@ -209,15 +228,25 @@ class TimingProblem:
         scale = np.where(scale > 0, scale, 1.0)
         h = x * scale[:, None]
         if self.bounds is None:
-            power = powers(scale, 6)
-            return self._score(h, ratios / power[:, 1:4, None], self._position_excess(coefficients, x),
-                               energy / power[:, 5])
+            if np.all(h >= self.duration_floor):
+                power = powers(scale, 6)
+                return self._score(h, ratios / power[:, 1:4, None], self._position_excess(coefficients, x),
+                                   energy / power[:, 5])
+            return self._raise_to_floor(h)
         for _ in range(_REPAIR_ROUNDS):
-            h = np.clip(h, *self.bounds)
+            h = np.clip(h, self.duration_floor, self.bounds[1])
             coefficients, ratios, excess = self._figures(h)
             if np.all(excess <= 1.0 + FEASIBILITY_TOLERANCE):
                 break
             h = h * np.maximum(excess, 1.0)[:, None]
+        return self._score(h, ratios, self._position_excess(coefficients, h), self._energy(coefficients, h))
+
+    def _raise_to_floor(self, h: np.ndarray) -> Evaluation:
+        """Durations (B, S) raised to ``duration_floor``, then scaled up until every limit holds."""
+        h = np.maximum(h, self.duration_floor)
+        _, _, scale = self._figures(h)
+        h = h * np.maximum(scale, 1.0)[:, None]
+        coefficients, ratios, _ = self._figures(h)
         return self._score(h, ratios, self._position_excess(coefficients, h), self._energy(coefficients, h))
 
     def _score(self, h, ratios, position_excess, energy) -> Evaluation:
@@ -225,8 +254,9 @@ class TimingProblem:
         total = h.sum(axis=1)
         value = total if self.objective_name == "time" else self.weights[0] * total + self.weights[1] * energy
         feasible = (worst <= 1.0 + FEASIBILITY_TOLERANCE) & (position_excess <= FEASIBILITY_TOLERANCE)
+        feasible &= np.all(h >= self.duration_floor * (1 - 1e-12), axis=1)
         if self.bounds is not None:
-            feasible &= np.all((h >= self.bounds[0] * (1 - 1e-12)) & (h <= self.bounds[1] * (1 + 1e-12)), axis=1)
+            feasible &= np.all(h <= self.bounds[1] * (1 + 1e-12), axis=1)
         penalty = _PENALTY * (np.maximum(worst - 1.0, 0.0) + position_excess)
         return Evaluation(h, np.where(feasible, value, value + penalty * (1.0 + total)), ratios,
                           position_excess, feasible)

@@ -1,0 +1,49 @@
+"""trajectory.csv and coefficients.json against the trajectory they export."""
+
+import numpy as np
+import pytest
+
+import planner.export as export
+from planner import InputError, get_family, paper
+from planner.export import coefficients_document, read_trajectory_csv, write_trajectory_csv
+from planner.splines import MAX_SAMPLES
+
+
+@pytest.fixture
+def trajectory():
+    return get_family("hybrid").build(np.deg2rad(paper.VIA_POINTS_DEG), paper.DURATIONS_S)
+
+
+def test_csv_written_in_chunks_equals_the_samples(tmp_path, trajectory, monkeypatch):
+    monkeypatch.setattr(export, "CSV_CHUNK_ROWS", 7)  # many chunk boundaries, one ragged last chunk
+    write_trajectory_csv(tmp_path / "t.csv", trajectory, 10.0)
+    times, values = read_trajectory_csv(tmp_path / "t.csv")
+    expected_times, expected = trajectory.sample(10.0)
+    np.testing.assert_allclose(times, expected_times, rtol=1e-9)
+    np.testing.assert_allclose(values, expected, rtol=1e-8, atol=1e-12)
+
+
+def test_normalized_coefficients_evaluate_to_the_trajectory(trajectory):
+    document = coefficients_document(trajectory)
+    b = np.array(document["normalized_coefficients"])
+    knots, durations = np.array(document["knot_times_s"]), np.array(document["durations_s"])
+    times = np.linspace(0.0, trajectory.total_time, 977)
+    k = np.clip(np.searchsorted(knots, times, side="right") - 1, 0, len(durations) - 1)
+    s = (times - knots[k]) / durations[k]
+    values = np.einsum("njp,np->nj", b[k], s[:, None] ** np.arange(b.shape[-1]))
+    np.testing.assert_allclose(values, trajectory.evaluate(times), atol=1e-12)
+
+
+def test_normalized_coefficients_stay_small_for_short_segments():
+    via = np.array([[0.0], [1e-4], [2e-4]])
+    short = get_family("hybrid").build(via, np.array([1e-3, 2e-3, 2e-3, 1e-3]))
+    document = coefficients_document(short)
+    assert np.abs(document["coefficients"]).max() > 1e12  # local time: h^-7 growth
+    assert np.abs(document["normalized_coefficients"]).max() < 1e-2  # the size of the motion
+
+
+def test_sampling_is_capped_before_anything_is_allocated(trajectory):
+    rate = 1.01 * MAX_SAMPLES / trajectory.total_time
+    with pytest.raises(InputError, match=r"makes 1\.01e\+06 samples, above the cap of 1,000,000"):
+        trajectory.sample(rate)
+    assert len(trajectory.sample_times(0.99 * MAX_SAMPLES / trajectory.total_time)) <= MAX_SAMPLES
