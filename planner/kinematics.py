@@ -19,7 +19,7 @@ from math import comb
 
 import numpy as np
 
-from .limits import QUANTITIES, UNITS, JointLimits, time_scale_factor
+from .limits import QUANTITIES, JointLimits, in_degrees, time_scale_factor
 from .splines import PiecewisePolynomial, derivative_coefficients, polyval, powers
 
 _IMAGINARY_TOLERANCE = 1e-7
@@ -349,21 +349,21 @@ class KinematicFigures:
         return limits.ratios(self.max_abs)
 
     def violations(self, limits: JointLimits, tolerance: float = 1e-9) -> list[str]:
-        """One line per violated limit (joint, quantity, value, limit); empty when feasible."""
+        """One line per violated limit (joint name, quantity, value, limit, in degrees); empty when feasible."""
         lines = []
         ratios = self.ratios(limits)
         for d, quantity in enumerate(QUANTITIES):
             for j in np.flatnonzero(ratios[d] > 1.0 + tolerance):
-                lines.append(f"joint {j + 1} {quantity} {self.max_abs[d, j]:.6g} {UNITS[d + 1]} exceeds "
-                             f"limit {limits.magnitudes[d, j]:.6g}")
+                lines.append(f"joint {limits.names[j]} {quantity} {in_degrees(self.max_abs[d, j], d + 1)} exceeds "
+                             f"its limit {in_degrees(limits.magnitudes[d, j], d + 1)}")
         slack = tolerance * np.maximum(1.0, np.abs(limits.lower))
         for j in np.flatnonzero(self.position_min < limits.lower - slack):
-            lines.append(f"joint {j + 1} position {self.position_min[j]:.6g} rad below lower limit "
-                         f"{limits.lower[j]:.6g}")
+            lines.append(f"joint {limits.names[j]} position {in_degrees(self.position_min[j], 0)} is below its "
+                         f"lower limit {in_degrees(limits.lower[j], 0)}")
         slack = tolerance * np.maximum(1.0, np.abs(limits.upper))
         for j in np.flatnonzero(self.position_max > limits.upper + slack):
-            lines.append(f"joint {j + 1} position {self.position_max[j]:.6g} rad above upper limit "
-                         f"{limits.upper[j]:.6g}")
+            lines.append(f"joint {limits.names[j]} position {in_degrees(self.position_max[j], 0)} is above its "
+                         f"upper limit {in_degrees(limits.upper[j], 0)}")
         return lines
 
 

@@ -1,4 +1,5 @@
-"""Per-joint kinematic limits in SI units, any of which may be absent (= unlimited)."""
+"""Per-joint kinematic limits in SI units, any of which may be absent (= unlimited), and how
+values are said to a user: in degrees (the task files' units) with the joint's name."""
 
 from __future__ import annotations
 
@@ -12,6 +13,18 @@ from .errors import InputError
 QUANTITIES = ("velocity", "acceleration", "jerk")
 #: SI units of position and of the derivative orders 1..3.
 UNITS = ("rad", "rad/s", "rad/s^2", "rad/s^3")
+#: Units of position and of the derivative orders 1..3 in messages and reports (task files use degrees).
+DEGREE_UNITS = ("deg", "deg/s", "deg/s^2", "deg/s^3")
+
+
+def in_degrees(value: float, order: int) -> str:
+    """A value [rad-based SI] of derivative ``order`` (0 = position) as the user reads it: "12.5 deg/s"."""
+    return f"{float(np.rad2deg(value)):.6g} {DEGREE_UNITS[order]}"
+
+
+def default_joint_names(joints: int) -> tuple[str, ...]:
+    """Names of joints that have none of their own (a joint-space task without a robot): joint1, joint2, ..."""
+    return tuple(f"joint{j + 1}" for j in range(joints))
 
 
 def _limit_vector(name: str, value, joints: int, fill: float) -> np.ndarray:
@@ -22,7 +35,7 @@ def _limit_vector(name: str, value, joints: int, fill: float) -> np.ndarray:
         raise InputError(f"{name} limits need {joints} values, got {array.size}")
     if np.isnan(array).any():
         joint = int(np.argmax(np.isnan(array)))
-        raise InputError(f"{name} limit of joint {joint + 1} is NaN")
+        raise InputError(f"{name} limits[{joint}] is NaN")
     return array
 
 
@@ -34,6 +47,8 @@ class JointLimits:
         lower, upper: (J,) position range [rad]; -inf / +inf where absent.
         velocity: (J,) [rad/s], acceleration: (J,) [rad/s^2], jerk: (J,) [rad/s^3];
             +inf where absent. Every given magnitude limit is > 0.
+        names: (J,) the joints' names, used in every message about them
+            (default ``default_joint_names``).
     """
 
     lower: np.ndarray
@@ -41,31 +56,38 @@ class JointLimits:
     velocity: np.ndarray
     acceleration: np.ndarray
     jerk: np.ndarray
+    names: tuple[str, ...] = ()
 
     @classmethod
     def create(cls, joints: int, *, lower=None, upper=None, velocity=None, acceleration=None,
-               jerk=None) -> "JointLimits":
+               jerk=None, names=None) -> "JointLimits":
         """Limits for ``joints`` joints; ``None`` means absent for every joint."""
         return cls(_limit_vector("lower position", lower, joints, -np.inf),
                    _limit_vector("upper position", upper, joints, np.inf),
                    _limit_vector("velocity", velocity, joints, np.inf),
                    _limit_vector("acceleration", acceleration, joints, np.inf),
-                   _limit_vector("jerk", jerk, joints, np.inf))
+                   _limit_vector("jerk", jerk, joints, np.inf), tuple(names or ()))
 
     def __post_init__(self):
-        joints = len(self.lower)
+        joints = len(np.atleast_1d(self.lower))
+        names = tuple(str(name) for name in self.names) or default_joint_names(joints)
+        if len(names) != joints:
+            raise InputError(f"{len(names)} joint names for {joints} joints")
+        object.__setattr__(self, "names", names)
         for name in ("lower", "upper", *QUANTITIES):
             object.__setattr__(self, name, _limit_vector(name, getattr(self, name), joints, np.inf))
-        for name in QUANTITIES:
+        for order, name in enumerate(QUANTITIES, start=1):
             values = getattr(self, name)
             bad = np.flatnonzero(values <= 0)
             if bad.size:
                 j = int(bad[0])
-                raise InputError(f"{name} limit of joint {j + 1} is {values[j]}; limits must be > 0")
+                raise InputError(f"{name} limit of joint {names[j]} is {in_degrees(values[j], order)}; "
+                                 f"limits must be > 0")
         bad = np.flatnonzero(self.lower >= self.upper)
         if bad.size:
             j = int(bad[0])
-            raise InputError(f"joint {j + 1} position range [{self.lower[j]}, {self.upper[j]}] is empty")
+            raise InputError(f"joint {names[j]} position range [{in_degrees(self.lower[j], 0)}, "
+                             f"{in_degrees(self.upper[j], 0)}] is empty")
 
     @property
     def joint_count(self) -> int:
@@ -89,8 +111,8 @@ class JointLimits:
         return max_abs / self.magnitudes
 
     def with_overrides(self, **values) -> "JointLimits":
-        """A copy with the named fields (lower, upper, velocity, acceleration, jerk) replaced."""
-        fields = {name: getattr(self, name) for name in ("lower", "upper", *QUANTITIES)}
+        """A copy with the named fields (lower, upper, velocity, acceleration, jerk, names) replaced."""
+        fields = {name: getattr(self, name) for name in ("lower", "upper", *QUANTITIES, "names")}
         fields.update({k: v for k, v in values.items() if v is not None})
         return JointLimits(**fields)
 

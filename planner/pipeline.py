@@ -6,7 +6,7 @@ Each stage takes and returns plain objects; this module only wires them.
 from __future__ import annotations
 
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -66,9 +66,8 @@ class PlanResult:
 
     @property
     def joint_names(self) -> list[str]:
-        if self.robot is not None:
-            return self.robot.joint_names
-        return [f"joint{j + 1}" for j in range(self.via_points.shape[1])]
+        """The joints' names: the robot's, else joint1, joint2, ... (``limits.names``)."""
+        return list(self.limits.names)
 
     def summary(self) -> dict:
         """The ``summary.json`` document (degrees for angles, seconds for time)."""
@@ -188,12 +187,12 @@ def shortest_total_time(via: np.ndarray, limits: JointLimits, task: Task) -> flo
 def robot_limits(robot: Robot, task: Task) -> JointLimits:
     """The robot's limits with the task's overrides; acceleration and jerk limits must exist."""
     check_limit_counts(task.limits, robot.dof, f"for robot {robot.name!r}")
-    limits = robot.limits.with_overrides(**task.limits)
+    limits = robot.limits.with_overrides(names=tuple(robot.joint_names), **task.limits)
     for quantity, yaml_key in (("acceleration", "acceleration_deg_s2"), ("jerk", "jerk_deg_s3")):
         missing = np.flatnonzero(~np.isfinite(getattr(limits, quantity)))
         if missing.size:
-            raise RobotError(f"robot {robot.name!r} has no {quantity} limit for joint {missing[0] + 1} "
-                             f"({robot.joint_names[missing[0]]}); give limits.{yaml_key} in the task")
+            raise RobotError(f"robot {robot.name!r} has no {quantity} limit for joint {limits.names[missing[0]]}; "
+                             f"give limits.{yaml_key} in the task")
     return limits
 
 
@@ -213,6 +212,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
     if task.robot is not None:
         robot = load_robot(task.robot.urdf, task.robot.name, task.robot.tool_frame)
         limits = robot_limits(robot, task)
+        robot = replace(robot, limits=limits)  # IK searches the very ranges the timing enforces
     timings["setup"] = time.perf_counter() - start
 
     start = time.perf_counter()
@@ -252,8 +252,9 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         result = optimize(problem, settings["algorithm"], seed=settings["seed"], progress=progress,
                           **settings["settings"])
         if not result.feasible:
+            worst = kinematic_figures(problem.trajectory(result.durations)).violations(limits)
             raise InfeasibleError(f"no feasible timing found by {result.algorithm}: largest constraint ratio "
-                                  f"{result.max_ratio:.6g} (limit 1)")
+                                  f"{result.max_ratio:.6g} (limit 1)" + (f"; {worst[0]}" if worst else ""))
         return problem.trajectory(result.durations), (problem, result)
 
     def timed_or_none(points: np.ndarray):

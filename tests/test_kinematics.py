@@ -118,20 +118,34 @@ def test_column_roots_match_numpy(degree, seed, rest_multiplicity, at_one):
     np.testing.assert_allclose(np.sort(found), np.sort(inside), atol=1e-7)
 
 
-def test_violations_name_joint_quantity_value_and_limit(paper_via):
-    limits = JointLimits.create(6, velocity=np.full(6, 0.1), lower=np.full(6, -1.0), upper=np.full(6, 3.0))
-    figures = kinematic_figures(get_family("hybrid").build(paper_via, np.full(9, 3.0)))
-    lines = figures.violations(limits)
-    assert any(line.startswith("joint 1 velocity") and "exceeds limit 0.1" in line for line in lines)
-    assert any("below lower limit -1" in line for line in lines)
+def test_violations_name_joint_quantity_value_and_limit_in_degrees(paper_via):
+    names = ("waist", "shoulder", "elbow", "wrist1", "wrist2", "wrist3")
+    limits = JointLimits.create(6, velocity=np.full(6, 0.1), lower=np.full(6, -1.0), upper=np.full(6, 3.0),
+                                names=names)
+    trajectory = get_family("hybrid").build(paper_via, np.full(9, 3.0))
+    lines = kinematic_figures(trajectory).violations(limits)
+    dense = np.linspace(0.0, trajectory.total_time, 200_001)  # an independent, sampled maximum
+    fastest = np.rad2deg(np.abs(trajectory.evaluate(dense, 1)).max(axis=0))
+    lowest = np.rad2deg(trajectory.evaluate(dense).min(axis=0))
+    for j, name in enumerate(names):
+        if fastest[j] > np.rad2deg(0.1):
+            line = next(line for line in lines if line.startswith(f"joint {name} velocity"))
+            value = float(line.split()[3])
+            assert value == pytest.approx(fastest[j], rel=1e-5) and line.endswith("exceeds its limit 5.72958 deg/s")
+        if lowest[j] < -np.rad2deg(1.0):
+            line = next(line for line in lines if line.startswith(f"joint {name} position"))
+            assert float(line.split()[3]) == pytest.approx(lowest[j], rel=1e-5)
+            assert line.endswith("is below its lower limit -57.2958 deg")
+    assert len(lines) == np.sum(fastest > np.rad2deg(0.1) * (1 + 1e-9)) + np.sum(lowest < -np.rad2deg(1.0)) + \
+        np.sum(np.rad2deg(trajectory.evaluate(dense).max(axis=0)) > np.rad2deg(3.0))
 
 
 @pytest.mark.parametrize("kwargs, message", [
-    ({"velocity": [1, 0, 1]}, "velocity limit of joint 2 is 0.0"),
-    ({"jerk": [1, 1, -1]}, "jerk limit of joint 3"),
+    ({"velocity": [1, 0, 1]}, "velocity limit of joint joint2 is 0 deg/s"),
+    ({"jerk": [1, 1, -1]}, "jerk limit of joint joint3 is -57.2958 deg/s"),
     ({"acceleration": [1, 1]}, "need 3 values"),
-    ({"velocity": [1, np.nan, 1]}, "joint 2 is NaN"),
-    ({"lower": [0, 0, 0], "upper": [1, -1, 1]}, "joint 2 position range"),
+    ({"velocity": [1, np.nan, 1]}, r"velocity limits\[1\] is NaN"),
+    ({"lower": [0, 0, 0], "upper": [1, -1, 1]}, "joint joint2 position range"),
 ])
 def test_bad_limits(kwargs, message):
     from planner import InputError

@@ -48,7 +48,7 @@ def paper_cartesian(**changes) -> dict:
     ({"robot": {"urdf": str(ROOT / "robots" / "puma560.urdf"), "tool_frame": "hand"}}, RobotError,
      "no frame 'hand'"),
     ({"robot": {"name": "ur5", "tool_frame": "tool0"}}, RobotError,
-     "robot 'ur5' has no acceleration limit for joint 1 .*limits.acceleration_deg_s2"),
+     "robot 'ur5' has no acceleration limit for joint shoulder_pan_joint; give limits.acceleration_deg_s2"),
     ({"limits": {"jerk_deg_s3": [1, 2]}}, TaskError, r"^limits.jerk_deg_s3: must have 6 values for robot 'puma560', got 2"),
 ])
 def test_robot_task_errors(changes, error, message):
@@ -92,7 +92,8 @@ def test_joint_task_with_robot_checks_ranges_and_joint_count():
     data = yaml.safe_load((TASKS / "puma560_paper_joint.yaml").read_text())
     data["robot"] = {"urdf": str(ROOT / "robots" / "puma560.urdf"), "tool_frame": "tool"}
     data["waypoints"]["joints_deg"][3][1] = -230
-    with pytest.raises(InfeasibleError, match="via-point 4 puts joint 2 at -4.01426 rad, outside its lower limit"):
+    with pytest.raises(InfeasibleError, match="via-point 3 puts joint joint2 at -230 deg, outside its lower limit "
+                                              "-225 deg"):
         plan(parse_task(data))
     data["waypoints"]["joints_deg"] = [row[:5] for row in data["waypoints"]["joints_deg"]]
     del data["limits"]
@@ -129,3 +130,20 @@ def test_too_many_samples_are_refused_naming_the_key(change, message):
     task = parse_task(data, name="long")
     with pytest.raises(TaskError, match=r"^trajectory\.sample_rate_hz: " + message + r" .* above the cap"):
         plan(task)
+
+
+@pytest.mark.parametrize("branch", ["optimal", "continuous"])
+def test_ik_searches_the_task_position_ranges(branch):
+    """A task range that excludes the UR5's usual wrist solution at the place pose: IK must find
+    the flipped wrist inside it instead of a solution the timing then rejects."""
+    data = yaml.safe_load((TASKS / "ur5_pick_and_place.yaml").read_text())
+    data["ik"] = {"branch": branch}
+    ranges = [[-360, 360], [-360, 360], [-180, 180], [-360, 360], [-360, 360], [-250, -100]]
+    data["limits"]["position_deg"] = ranges
+    result = plan(parse_task(data))
+    low, high = np.deg2rad(np.array(ranges)).T
+    assert np.all((result.via_points >= low) & (result.via_points <= high))
+    assert np.all(result.figures.position_min >= low - 1e-9) and np.all(result.figures.position_max <= high + 1e-9)
+    for solution, waypoint in zip(result.ik, result.task.cartesian_waypoints):
+        reached = result.robot.forward_kinematics(solution.q)
+        np.testing.assert_allclose(reached.translation, waypoint.position, atol=1e-9)

@@ -106,12 +106,14 @@ def test_position_limits_are_enforced():
 
 def test_via_point_outside_range_is_infeasible():
     limits = paper.paper_limits().with_overrides(upper=np.deg2rad([180, 180, 190, 180, 180, 180]))
-    with pytest.raises(InfeasibleError, match="via-point 3 puts joint 3 at 3.49066 rad, outside its upper limit"):
+    with pytest.raises(InfeasibleError, match="via-point 2 puts joint joint3 at 200 deg, outside its upper limit "
+                                              "190 deg"):
         TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", limits)
 
 
 def test_upper_bound_too_small_is_infeasible():
-    with pytest.raises(InfeasibleError, match=r"h_max = 0.5 s: joint \d \w+ reaches .* limit") as info:
+    with pytest.raises(InfeasibleError, match=r"h_max = 0.5 s: joint joint\d (velocity|acceleration|jerk) "
+                                              r"reaches [\d.]+ deg/s(\^2|\^3)?, limit [\d.]+ deg/s") as info:
         TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", paper.paper_limits(), bounds=(0.1, 0.5))
     assert info.value.quantity in ("velocity", "acceleration", "jerk") and info.value.value > info.value.limit
 

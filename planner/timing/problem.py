@@ -41,7 +41,7 @@ import numpy as np
 
 from ..errors import InfeasibleError, InputError
 from ..kinematics import batch_scale_factors, jerk_energy, position_range
-from ..limits import QUANTITIES, UNITS, JointLimits, time_scale_factor
+from ..limits import QUANTITIES, JointLimits, in_degrees, time_scale_factor
 from ..splines import PiecewisePolynomial, SplineFamily, get_family, powers
 from ..validate import finite_array
 
@@ -154,8 +154,8 @@ class TimingProblem:
                 k, j = (int(i) for i in hits[0])
                 bound = getattr(self.limits, name)[j]
                 raise InfeasibleError(
-                    f"via-point {k + 1} puts joint {j + 1} at {self.given_via_points[k, j]:.6g} rad, "
-                    f"outside its {name} limit {bound:.6g} rad",
+                    f"via-point {k} puts joint {self.limits.names[j]} at {in_degrees(self.given_via_points[k, j], 0)}, "
+                    f"outside its {name} limit {in_degrees(bound, 0)}",
                     joint=j, quantity="position", value=float(self.given_via_points[k, j]), limit=float(bound))
 
     def _check_upper_bound_feasible(self) -> None:
@@ -163,12 +163,11 @@ class TimingProblem:
         ratios = ratios[0]
         if ratios.max() > 1.0 + FEASIBILITY_TOLERANCE:
             d, j = np.unravel_index(np.argmax(ratios), ratios.shape)
-            value = ratios[d, j] * self.limits.magnitudes[d, j]
+            value, limit = ratios[d, j] * self.limits.magnitudes[d, j], self.limits.magnitudes[d, j]
             raise InfeasibleError(
-                f"infeasible even with every duration at h_max = {self.bounds[1]:g} s: joint {j + 1} "
-                f"{QUANTITIES[d]} reaches {value:.6g} {UNITS[d + 1]}, limit {self.limits.magnitudes[d, j]:.6g}",
-                joint=int(j), quantity=QUANTITIES[d], value=float(value),
-                limit=float(self.limits.magnitudes[d, j]))
+                f"infeasible even with every duration at h_max = {self.bounds[1]:g} s: joint {self.limits.names[j]} "
+                f"{QUANTITIES[d]} reaches {in_degrees(value, d + 1)}, limit {in_degrees(limit, d + 1)}",
+                joint=int(j), quantity=QUANTITIES[d], value=float(value), limit=float(limit))
 
     # ------------------------------------------------------------------ search space
 
