@@ -45,25 +45,18 @@ def _reproduce(args) -> int:
 
 def _replay(args) -> int:
     from .export import atomic_file, write_trajectory_csv
-    from .kinematics import kinematic_figures
     from .recording import read_recording
     recorded = read_recording(args.recording)
     if args.export_csv:
         with atomic_file(args.export_csv) as staging:
-            write_trajectory_csv(staging, recorded.trajectory, 1.0 / np.median(np.diff(recorded.times)))
+            write_trajectory_csv(staging, recorded.trajectory, recorded.rate_hz)
     if args.check:
-        figures = kinematic_figures(recorded.trajectory)
-        violations = figures.violations(recorded.limits)
-        rebuilt = recorded.trajectory.evaluate(recorded.times)
-        deviation = float(np.abs(rebuilt - recorded.positions).max())
-        ratio = float(np.nan_to_num(figures.ratios(recorded.limits)).max())
-        # Rerun stores time in whole nanoseconds: a sample may sit up to 1 ns off its time.
-        tolerance = 1e-9 * float(figures.max_abs[0].max()) + 1e-12
+        check = recorded.check()
         print(f"{args.recording}: {len(recorded.joint_names)} joints, {len(recorded.times)} samples, "
-              f"T = {recorded.trajectory.total_time:.4f} s, largest ratio {ratio:.4f}, "
-              f"samples vs trajectory {deviation:.2e} rad (allowed {tolerance:.1e}), "
-              f"{'limits hold' if not violations else 'VIOLATIONS: ' + '; '.join(violations)}")
-        return 0 if not violations and deviation <= tolerance else 1
+              f"T = {recorded.trajectory.total_time:.4f} s, largest ratio {check.largest_ratio:.4f}, "
+              f"samples vs trajectory {check.deviation:.2e} rad (allowed {check.tolerance:.1e}), "
+              f"{'limits hold' if not check.violations else 'VIOLATIONS: ' + '; '.join(check.violations)}")
+        return 0 if check.passed else 1
     if not args.export_csv:
         import subprocess
         try:
