@@ -44,12 +44,29 @@ def _reproduce(args) -> int:
 
 
 def _replay(args) -> int:
+    import os
+
+    from .errors import InputError
     from .export import atomic_file, write_trajectory_csv
-    from .recording import read_recording
+    from .recording import open_in_viewer, read_recording
+    target = args.export_csv
+    if target is not None:  # checked before reading: a bad target fails fast and leaves nothing
+        if target.is_dir():
+            raise InputError(f"--export-csv {target}: is a folder; give the path of a CSV file")
+        above = next(p for p in target.parents if p.exists())  # the last parent, "." or "/", exists
+        if not above.is_dir():
+            raise InputError(f"--export-csv {target}: {above} is a file, not a folder")
+        if not os.access(above, os.W_OK | os.X_OK):
+            raise InputError(f"--export-csv {target}: cannot write in the folder {above}")
+        if target.resolve() == args.recording.resolve():
+            raise InputError(f"--export-csv {target}: is the recording itself")
     recorded = read_recording(args.recording)
-    if args.export_csv:
-        with atomic_file(args.export_csv) as staging:
+    if target is not None:
+        with atomic_file(target) as staging:
             write_trajectory_csv(staging, recorded.trajectory, recorded.rate_hz)
+            umask = os.umask(0o022)
+            os.umask(umask)
+            staging.chmod(0o666 & ~umask)  # the usual permissions of a new file, not the temporary file's 0600
     if args.check:
         check = recorded.check()
         print(f"{args.recording}: {len(recorded.joint_names)} joints, {len(recorded.times)} samples, "
@@ -57,13 +74,8 @@ def _replay(args) -> int:
               f"samples vs trajectory {check.deviation:.2e} rad (allowed {check.tolerance:.1e}), "
               f"{'limits hold' if not check.violations else 'VIOLATIONS: ' + '; '.join(check.violations)}")
         return 0 if check.passed else 1
-    if not args.export_csv:
-        import subprocess
-        try:
-            subprocess.Popen([sys.executable, "-m", "rerun", str(args.recording)])
-        except OSError as exc:
-            print(f"error: cannot start the Rerun viewer: {exc}", file=sys.stderr)
-            return 1
+    if target is None:
+        open_in_viewer(args.recording)
     return 0
 
 
@@ -82,7 +94,8 @@ def build_parser() -> argparse.ArgumentParser:
     reproduce.add_argument("--seed", type=int, default=0)
     reproduce.add_argument("--quiet", action="store_true")
     reproduce.set_defaults(run=_reproduce)
-    replay = commands.add_parser("replay", help="open a trajectory.rrd in the Rerun viewer, or check/export it")
+    replay = commands.add_parser("replay", help="open a trajectory.rrd in the Rerun viewer (needs a display), "
+                                                "or check/export it without one")
     replay.add_argument("recording", type=Path)
     replay.add_argument("--check", action="store_true",
                         help="read it back without a viewer and re-check it against its recorded limits")

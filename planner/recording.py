@@ -1,4 +1,4 @@
-"""Rerun recordings of a plan (``trajectory.rrd``), and reading them back.
+"""Rerun recordings of a plan (``trajectory.rrd``), reading them back, and opening them in the viewer.
 
 What a recording holds (timeline ``time``, in seconds):
 
@@ -32,13 +32,17 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import subprocess
+import sys
+import tempfile
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError, RecordingError, shown
+from .errors import InputError, PlannerError, RecordingError, shown
 from .kinematics import kinematic_figures
 from .limits import QUANTITIES, JointLimits
 from .splines import PiecewisePolynomial
@@ -438,3 +442,46 @@ def _require_complete(path: Path, times_ns: np.ndarray, count: int, rate_hz: flo
         raise RecordingError(f"{incomplete} no samples between {_seconds(times_ns[k])} and "
                              f"{_seconds(times_ns[k + 1])} (sample period {1 / rate_hz!r} s)")
 
+
+# ---------------------------------------------------------------------------- the viewer
+
+#: How long ``open_in_viewer`` watches the viewer for a failure at start-up [s].
+VIEWER_STARTUP_S = 1.5
+#: The command that opens a recording in the Rerun viewer (the file is appended).
+VIEWER_COMMAND = (sys.executable, "-m", "rerun")
+
+
+def has_display() -> bool:
+    """Whether a window can be opened: always on macOS and Windows, elsewhere with DISPLAY or WAYLAND_DISPLAY set."""
+    if os.name != "posix" or sys.platform == "darwin":
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+def open_in_viewer(path: Path, *, startup_s: float = VIEWER_STARTUP_S) -> None:
+    """Open the recording ``path`` in the Rerun viewer, a process of its own that outlives this one.
+
+    Raises:
+        PlannerError: no display to show the viewer on (checked before starting it), the viewer
+            cannot be started, or it exits with an error within ``startup_s`` [s].
+    """
+    alternatives = (f"check it without a viewer with `planner replay {path} --check`, export its samples with "
+                    "--export-csv PATH, or open it on a machine with a display (or under xvfb-run)")
+    if not has_display():
+        raise PlannerError(f"no display for the Rerun viewer (neither DISPLAY nor WAYLAND_DISPLAY is set): "
+                           f"{alternatives}")
+    with tempfile.TemporaryFile() as log:  # the viewer's output, shown only if it fails at start-up
+        try:
+            viewer = subprocess.Popen([*VIEWER_COMMAND, str(path)], stdout=log, stderr=subprocess.STDOUT)
+        except OSError as exc:
+            raise PlannerError(f"cannot start the Rerun viewer: {exc}") from None
+        try:
+            code = viewer.wait(timeout=startup_s)
+        except subprocess.TimeoutExpired:
+            return  # still running: it is showing the recording
+        if code == 0:
+            return
+        log.seek(0)
+        lines = log.read().decode(errors="replace").strip().splitlines()
+        said = f" ({shown(lines[-1].strip(), 300)})" if lines else ""  # its last line says why
+        raise PlannerError(f"the Rerun viewer exited with code {code}{said}; {alternatives}")

@@ -1,5 +1,8 @@
 import json
+import os
 import struct
+import subprocess
+import sys
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -359,3 +362,104 @@ def test_any_joint_and_task_name_is_logged_as_one_entity_and_read_back(tmp_path,
         assert rr.new_entity_path(["profiles", "position", "via_points", name]) in entities
     assert len([e for e in entities if e.startswith("/profiles/jerk/") and "/limits/" not in e]) == len(NAMES)
     assert capfd.readouterr().err == ""  # Rerun warns on stderr about paths it has to reinterpret
+
+
+# ---------------------------------------------------------------------------- the viewer
+
+
+@pytest.fixture
+def recording(tmp_path):
+    return write_like_planner(tmp_path / "r.rrd")
+
+
+@pytest.fixture
+def no_viewer(monkeypatch):
+    """Fail the test if a viewer process is started."""
+    def refuse(*args, **kwargs):
+        raise AssertionError("a viewer was started")
+    monkeypatch.setattr(subprocess, "Popen", refuse)
+
+
+@pytest.mark.parametrize("platform", ["linux", "freebsd13"])
+def test_replay_without_a_display_fails_before_starting_the_viewer(platform, recording, monkeypatch, no_viewer,
+                                                                   capsys):
+    monkeypatch.setattr(sys, "platform", platform)
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.setenv("WAYLAND_DISPLAY", "")
+    assert main(["replay", str(recording)]) != 0
+    err = capsys.readouterr().err
+    assert err.startswith("error: no display") and err.count("\n") == 1
+    assert "--check" in err and "--export-csv" in err and "machine with a display" in err
+
+
+def test_replay_reports_a_viewer_that_fails_at_start_up(recording, monkeypatch, capsys):
+    import planner.recording as module
+
+    monkeypatch.setenv("DISPLAY", ":99")
+    monkeypatch.setattr(module, "VIEWER_COMMAND",
+                        (sys.executable, "-c", "import sys; print('starting'); sys.exit('cannot open display :99')"))
+    assert main(["replay", str(recording)]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "exited with code 1" in err and "cannot open display :99" in err
+
+
+def test_replay_returns_once_the_viewer_is_up(recording, monkeypatch, capsys):
+    started = []
+
+    class RunningViewer:
+        def __init__(self, command, **kwargs):
+            started.append(command)
+
+        def wait(self, timeout=None):
+            raise subprocess.TimeoutExpired("rerun", timeout)
+    monkeypatch.setenv("WAYLAND_DISPLAY", "wayland-0")
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.setattr(subprocess, "Popen", RunningViewer)
+    assert main(["replay", str(recording)]) == 0
+    assert started[0][-1] == str(recording) and capsys.readouterr().err == ""
+
+
+def test_a_bad_recording_fails_before_the_viewer(tmp_path, monkeypatch, no_viewer):
+    monkeypatch.setenv("DISPLAY", ":0")
+    assert main(["replay", str(write_like_planner(tmp_path / "r.rrd", end=None))]) == 2
+
+
+# ---------------------------------------------------------------------------- --export-csv
+
+
+def test_export_to_a_folder_fails_before_reading(tmp_path, capsys):
+    target = tmp_path / "x.csv"
+    target.mkdir()
+    assert main(["replay", str(tmp_path / "missing.rrd"), "--export-csv", str(target)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"--export-csv {target}: is a folder" in err
+    assert [p.name for p in tmp_path.iterdir()] == ["x.csv"] and list(target.iterdir()) == []
+
+
+@pytest.mark.parametrize("below", ["x.csv", "sub/x.csv"])
+def test_export_below_a_file_fails(below, recording, tmp_path, capsys):
+    blocker = tmp_path / "notes.txt"
+    blocker.write_text("a file")
+    target = blocker / below
+    assert main(["replay", str(recording), "--export-csv", str(target)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(target) in err and f"{blocker} is a file" in err
+    assert blocker.read_text() == "a file"
+
+
+def test_export_over_the_recording_itself_fails(recording, capsys):
+    before = recording.read_bytes()
+    assert main(["replay", str(recording), "--export-csv", str(recording)]) == 2
+    assert "is the recording itself" in capsys.readouterr().err and recording.read_bytes() == before
+
+
+@pytest.mark.parametrize("umask", [0o022, 0o027, 0o002])
+def test_export_gets_the_usual_permissions(umask, recording, tmp_path):
+    previous = os.umask(umask)
+    try:
+        assert main(["replay", str(recording), "--export-csv", str(tmp_path / "out" / "x.csv")]) == 0
+    finally:
+        os.umask(previous)
+    assert (tmp_path / "out" / "x.csv").stat().st_mode & 0o777 == 0o666 & ~umask
+    times, values = read_trajectory_csv(tmp_path / "out" / "x.csv")
+    assert len(times) == 201 and times[-1] == pytest.approx(4.0)
