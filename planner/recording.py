@@ -244,7 +244,7 @@ def read_recording(path) -> RecordedPlan:
     if not path.is_file():
         raise RecordingError(f"{path}: no such recording")
     application, chunks = _trajectory_chunks(path)
-    if not chunks and application != APPLICATION_ID:
+    if not chunks.keys() & {_DEFINITION, _SAMPLES, _END} and application != APPLICATION_ID:
         raise RecordingError(f"{path}: not a planner recording (no trajectory definition of format {FORMAT})")
     definition_text = _single_text(path, chunks.get(_DEFINITION, []), "planner_definition")
     if definition_text is None:
@@ -271,7 +271,8 @@ def _trajectory_chunks(path: Path) -> tuple[str, dict[str, list]]:
             stores = reader.recordings()
             chunks = reader.stream().filter(content="/trajectory/**").to_chunks()
     except Exception as exc:  # rerun raises plain exceptions for corrupt files
-        raise RecordingError(f"{path}: not a readable Rerun recording ({str(exc).splitlines()[0]})") from None
+        said = (str(exc).splitlines() or [type(exc).__name__])[0]
+        raise RecordingError(f"{path}: not a readable Rerun recording ({said})") from None
     if len(stores) != 1:
         raise RecordingError(f"{path}: holds {len(stores)} recordings; a planner recording holds one")
     by_entity: dict[str, list] = {}
