@@ -15,7 +15,7 @@ import sys
 import threading
 from pathlib import Path
 
-from .errors import PlannerError, one_line
+from .errors import OutputError, PlannerError, one_line
 from .progress import TerminalProgress
 
 
@@ -61,36 +61,26 @@ def _reproduce(args) -> int:
 
 
 def _replay(args) -> int:
-    import numpy as np
-
     from .export import write_trajectory_csv
-    from .outputs import atomic_file
-    from .kinematics import kinematic_figures
-    from .recording import read_recording
+    from .outputs import atomic_file, check_output_file
+    from .recording import open_in_viewer, read_recording
+    target = args.export_csv
+    if target is not None:  # checked before reading: a bad target fails fast and leaves nothing
+        if check_output_file(target) == Path(args.recording).resolve():
+            raise OutputError(f"--export-csv {target} is the recording itself")
     recorded = read_recording(args.recording)
-    if args.export_csv:
-        with atomic_file(args.export_csv) as staging:
-            write_trajectory_csv(staging, recorded.trajectory, 1.0 / np.median(np.diff(recorded.times)))
+    if target is not None:
+        with atomic_file(target) as staging:
+            write_trajectory_csv(staging, recorded.trajectory, recorded.rate_hz)
     if args.check:
-        figures = kinematic_figures(recorded.trajectory)
-        violations = figures.violations(recorded.limits)
-        rebuilt = recorded.trajectory.evaluate(recorded.times)
-        deviation = float(np.abs(rebuilt - recorded.positions).max())
-        ratio = float(np.nan_to_num(figures.ratios(recorded.limits)).max())
-        # Rerun stores time in whole nanoseconds: a sample may sit up to 1 ns off its time.
-        tolerance = 1e-9 * float(figures.max_abs[0].max()) + 1e-12
+        check = recorded.check()
         print(f"{args.recording}: {len(recorded.joint_names)} joints, {len(recorded.times)} samples, "
-              f"T = {recorded.trajectory.total_time:.4f} s, largest ratio {ratio:.4f}, "
-              f"samples vs trajectory {deviation:.2e} rad (allowed {tolerance:.1e}), "
-              f"{'limits hold' if not violations else 'VIOLATIONS: ' + '; '.join(violations)}")
-        return 0 if not violations and deviation <= tolerance else 1
-    if not args.export_csv:
-        import subprocess
-        try:
-            subprocess.Popen([sys.executable, "-m", "rerun", str(args.recording)])
-        except OSError as exc:
-            print(f"error: cannot start the Rerun viewer: {exc}", file=sys.stderr)
-            return 1
+              f"T = {recorded.trajectory.total_time:.4f} s, largest ratio {check.largest_ratio:.4f}, "
+              f"samples vs trajectory {check.deviation:.2e} rad (allowed {check.tolerance:.1e}), "
+              f"{'limits hold' if not check.violations else 'VIOLATIONS: ' + '; '.join(check.violations)}")
+        return 0 if check.passed else 1
+    if target is None:
+        open_in_viewer(args.recording)
     return 0
 
 
@@ -113,7 +103,8 @@ def build_parser() -> argparse.ArgumentParser:
     reproduce.add_argument("--seed", type=int, default=0)
     reproduce.add_argument("--quiet", action="store_true")
     reproduce.set_defaults(run=_reproduce)
-    replay = commands.add_parser("replay", help="open a trajectory.rrd in the Rerun viewer, or check/export it")
+    replay = commands.add_parser("replay", help="open a trajectory.rrd in the Rerun viewer (needs a display), "
+                                                "or check/export it without one")
     replay.add_argument("recording", type=Path)
     replay.add_argument("--check", action="store_true",
                         help="read it back without a viewer and re-check it against its recorded limits")

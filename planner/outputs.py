@@ -245,11 +245,8 @@ def output_folder(path, *, force: bool = False) -> Iterator[Path]:
                     break
 
 
-@contextmanager
-def atomic_file(path) -> Iterator[Path]:
-    """Yield a temporary path beside ``path``; on success rename it to ``path``, else delete it.
-
-    The file gets the permissions any new file of the user gets (0666 less the umask).
+def check_output_file(path) -> Path:
+    """``path`` as an absolute file path that can be written, checked before any work.
 
     Raises:
         OutputError: an empty path, a path that is a folder or lies under a file, or an unwritable folder.
@@ -258,6 +255,19 @@ def atomic_file(path) -> Iterator[Path]:
     if target.is_dir():
         raise OutputError(f"output file {target} is an existing folder; give a file name")
     check_writable_location(target, "output file")
+    return target
+
+
+@contextmanager
+def atomic_file(path) -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; on success rename it to ``path``, else delete it.
+
+    The file gets the permissions any new file of the user gets (0666 less the umask).
+
+    Raises:
+        OutputError: as ``check_output_file``.
+    """
+    target = check_output_file(path)
     target.parent.mkdir(parents=True, exist_ok=True)
     temporary = target.parent / f".{target.name}.{secrets.token_hex(4)}.tmp"
     os.close(os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))

@@ -1,4 +1,4 @@
-"""Rerun recordings of a plan (``trajectory.rrd``), and reading them back.
+"""Rerun recordings of a plan (``trajectory.rrd``), reading them back, and opening them in the viewer.
 
 What a recording holds (timeline ``time``, in seconds):
 
@@ -17,7 +17,13 @@ What a recording holds (timeline ``time``, in seconds):
   and static ``trajectory/definition``: the piecewise polynomial (durations,
   coefficients, via knots) and the limits in SI units, so ``planner replay
   --check`` can re-run the exact checks without the task.
+* static ``trajectory/end``, written last of all (after a flush): the sample
+  count, sample rate and time span. A recording cut short lacks it, so
+  ``read_recording`` can tell a complete recording from a truncated one.
 * recording properties ``plan``: task, family, optimizer, total time.
+
+Names (task, joints) are labels: each is one escaped entity-path part, whatever
+characters it holds, and is read back from the definition, never from a path.
 
 The default blueprint shows the 3D view beside the four profile plots.
 """
@@ -25,19 +31,54 @@ The default blueprint shows the 3D view beside the four profile plots.
 from __future__ import annotations
 
 import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from .errors import RecordingError
+from .errors import InputError, PlannerError, RecordingError, shown
+from .kinematics import kinematic_figures
 from .limits import QUANTITIES, JointLimits
 from .splines import PiecewisePolynomial
 
 APPLICATION_ID = "planner"
-FORMAT = "planner-recording/v1"
+FORMAT = "planner-recording/v2"
 _PROFILES = ("position", *QUANTITIES)
+_LIMIT_FIELDS = ("lower", "upper", *QUANTITIES)
+_SAMPLES = "/trajectory/samples"
+_DEFINITION = "/trajectory/definition"
+_END = "/trajectory/end"
+_SCALARS = "Scalars:scalars"
+#: Rerun keeps times in whole nanoseconds, rounded: a recorded time is within this of the planner's [ns].
+_TIME_QUANTUM_NS = 1.0
+
+
+def _entity(*parts: str) -> str:
+    """An entity path from unescaped parts: a name with spaces, slashes, ``$`` or emoji stays one part."""
+    import rerun as rr
+    return rr.new_entity_path(list(parts))
+
+
+def trajectory_definition(trajectory: PiecewisePolynomial, limits: JointLimits, joint_names: list[str]) -> dict:
+    """The ``trajectory/definition`` document: the exact piecewise polynomial and the limits [SI]."""
+    return {
+        "format": FORMAT, "joint_names": list(joint_names), "durations_s": trajectory.durations.tolist(),
+        "coefficients_shape": list(trajectory.coefficients.shape),
+        "coefficients": trajectory.coefficients.ravel().tolist(), "via_knots": trajectory.via_knots.tolist(),
+        "limits": {name: [float(v) for v in getattr(limits, name)] for name in _LIMIT_FIELDS},
+    }
+
+
+def end_marker(times: np.ndarray, rate_hz: float) -> dict:
+    """The ``trajectory/end`` document for samples at ``times`` [s] taken at ``rate_hz`` [Hz]."""
+    return {"sample_count": int(len(times)), "sample_rate_hz": float(rate_hz),
+            "time_span_s": [float(times[0]), float(times[-1])]}
 
 
 def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None:
@@ -47,7 +88,8 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
 
     trajectory: PiecewisePolynomial = result.trajectory
     names = result.joint_names
-    times, values = trajectory.sample(rate_hz or result.task.sample_rate_hz)
+    rate_hz = rate_hz or result.task.sample_rate_hz
+    times, values = trajectory.sample(rate_hz)
     time_index = [rr.TimeColumn("time", duration=times)]
     rec = rr.RecordingStream(APPLICATION_ID, recording_id=f"{result.task.name}-{id(result)}")
     rec.save(str(path))
@@ -56,31 +98,25 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
         task=result.task.name, family=result.task.family, optimizer=result.optimization.algorithm,
         total_time_s=trajectory.total_time, feasible=bool(result.optimization.feasible),
         joints=", ".join(names)))
-    definition = {
-        "format": FORMAT, "joint_names": names, "durations_s": trajectory.durations.tolist(),
-        "coefficients_shape": list(trajectory.coefficients.shape),
-        "coefficients": trajectory.coefficients.ravel().tolist(), "via_knots": trajectory.via_knots.tolist(),
-        "limits": {name: [float(v) for v in getattr(result.limits, name)]
-                   for name in ("lower", "upper", *QUANTITIES)},
-    }
-    rec.log("trajectory/definition", rr.AnyValues(planner_definition=json.dumps(definition)), static=True)
-    rec.send_columns("trajectory/samples", indexes=time_index, columns=rr.Scalars.columns(scalars=values[0]))
+    definition = trajectory_definition(trajectory, result.limits, names)
+    rec.log(_DEFINITION, rr.AnyValues(planner_definition=json.dumps(definition)), static=True)
+    rec.send_columns(_SAMPLES, indexes=time_index, columns=rr.Scalars.columns(scalars=values[0]))
 
     bounds = [(result.limits.lower, result.limits.upper)] + [(-m, m) for m in result.limits.magnitudes]
     ends = [rr.TimeColumn("time", duration=[0.0, trajectory.total_time])]
     for k, profile in enumerate(_PROFILES):
         for j, name in enumerate(names):
-            rec.send_columns(f"profiles/{profile}/{name}", indexes=time_index,
+            rec.send_columns(_entity("profiles", profile, name), indexes=time_index,
                              columns=rr.Scalars.columns(scalars=np.rad2deg(values[k, :, j])))
             for side, bound in zip(("lower", "upper"), (bounds[k][0][j], bounds[k][1][j])):
                 if np.isfinite(bound):
-                    entity = f"profiles/{profile}/limits/{name}/{side}"
+                    entity = _entity("profiles", profile, "limits", name, side)
                     rec.log(entity, rr.SeriesLines(names=f"{name} {side} limit", widths=1.0), static=True)
                     rec.send_columns(entity, indexes=ends, columns=rr.Scalars.columns(scalars=[np.rad2deg(bound)] * 2))
     via_index = [rr.TimeColumn("time", duration=trajectory.via_times)]
     via_positions = trajectory.evaluate(trajectory.via_times)
     for j, name in enumerate(names):
-        entity = f"profiles/position/via_points/{name}"
+        entity = _entity("profiles", "position", "via_points", name)
         rec.log(entity, rr.SeriesPoints(names=f"{name} via-points", marker_sizes=4.0), static=True)
         rec.send_columns(entity, indexes=via_index, columns=rr.Scalars.columns(scalars=np.rad2deg(via_positions[:, j])))
 
@@ -91,10 +127,10 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
     plots = [rrb.TimeSeriesView(origin=f"/profiles/{p}", name=p) for p in _PROFILES]
     rec.send_blueprint(rrb.Blueprint(rrb.Horizontal(*views, rrb.Vertical(*plots)) if views else rrb.Vertical(*plots),
                                      collapse_panels=True))
+    rec.flush()  # everything above is in the file before the end marker
+    rec.log(_END, rr.AnyValues(planner_end=json.dumps(end_marker(times, rate_hz))), static=True)
     rec.flush()
     rec.disconnect()
-
-
 def _log_robot(rec, result, times: np.ndarray, positions: np.ndarray) -> None:
     import rerun as rr
     import rerun.urdf as rru
@@ -110,7 +146,7 @@ def _log_robot(rec, result, times: np.ndarray, positions: np.ndarray) -> None:
     for joint in tree.joints():
         if joint.joint_type == "fixed":
             continue
-        entity = f"robot/joint_transforms/{joint.name}"
+        entity = _entity("robot", "joint_transforms", joint.name)
         if joint.name in planned:
             rec.send_columns(entity, indexes=time_index,
                              columns=joint.compute_transform_columns(positions[:, planned[joint.name]], clamp=False))
@@ -144,51 +180,309 @@ def _log_robot(rec, result, times: np.ndarray, positions: np.ndarray) -> None:
 
 
 @dataclass(frozen=True)
+class RecordingCheck:
+    """What ``RecordedPlan.check`` finds.
+
+    Attributes:
+        violations: one line per limit the exact trajectory exceeds (empty when all hold).
+        largest_ratio: largest constraint ratio max|q^(d)| / limit over joints and orders.
+        deviation: largest |sample - trajectory at the sample's time| [rad].
+        tolerance: the deviation allowed by Rerun's whole-nanosecond times [rad].
+    """
+
+    violations: list[str]
+    largest_ratio: float
+    deviation: float
+    tolerance: float
+
+    @property
+    def passed(self) -> bool:
+        """Every limit holds and every sample lies on the trajectory."""
+        return not self.violations and self.deviation <= self.tolerance
+
+
+@dataclass(frozen=True)
 class RecordedPlan:
-    """What ``read_recording`` recovers: the sampled joint positions and the exact trajectory."""
+    """What ``read_recording`` recovers: the sampled joint positions and the exact trajectory.
+
+    Attributes:
+        times: (N,) sample times [s], increasing, from 0 to the total time.
+        positions: (N, J) joint positions [rad] at ``times``.
+        trajectory: the exact piecewise polynomial.
+        limits: the limits it was planned under [SI].
+        joint_names: (J,) names, as the planner knew them.
+        rate_hz: the sample rate [Hz].
+    """
 
     times: np.ndarray
     positions: np.ndarray
     trajectory: PiecewisePolynomial
     limits: JointLimits
     joint_names: list[str]
+    rate_hz: float
+
+    def check(self) -> RecordingCheck:
+        """Re-run the exact limit checks and compare the samples with the trajectory."""
+        figures = kinematic_figures(self.trajectory)
+        deviation = float(np.abs(self.trajectory.evaluate(self.times) - self.positions).max())
+        # A sample may sit up to one time quantum off its time: allow the position change over it.
+        tolerance = _TIME_QUANTUM_NS * 1e-9 * float(figures.max_abs[0].max()) + 1e-12
+        ratio = float(np.nan_to_num(figures.ratios(self.limits)).max())
+        return RecordingCheck(figures.violations(self.limits), ratio, deviation, tolerance)
 
 
 def read_recording(path) -> RecordedPlan:
-    """Read a planner recording back, without a viewer.
+    """Read a planner recording back, without a viewer, and check that it is whole.
 
     Raises:
-        RecordingError: a missing file, one Rerun cannot read, or a recording not written by the planner.
+        RecordingError: a missing file, one Rerun cannot read, one not written by the
+            planner, a definition or samples that are malformed (the field is named), or
+            an incomplete recording (no end marker, samples missing, duplicated or off
+            the trajectory's time span).
     """
-    import rerun.chunk as rc
-
     path = Path(path)
     if not path.is_file():
         raise RecordingError(f"{path}: no such recording")
-    try:
-        with warnings.catch_warnings():  # rerun warns about files without a footer; the errors below say it
-            warnings.simplefilter("ignore")
-            chunks = rc.RrdReader(str(path)).stream().to_chunks()
-    except Exception as exc:  # rerun raises plain exceptions for corrupt files
-        raise RecordingError(f"{path}: not a readable Rerun recording ({str(exc).splitlines()[0]})") from None
-    samples, definition = [], None
-    for chunk in chunks:
-        if chunk.entity_path == "/trajectory/samples":
-            batch = chunk.to_record_batch()
-            times = np.asarray(batch.column("time").cast("int64").to_numpy(zero_copy_only=False)) / 1e9
-            values = np.array(batch.column("Scalars:scalars").to_pylist(), dtype=float)
-            samples.append((times, values))
-        elif chunk.entity_path == "/trajectory/definition":
-            batch = chunk.to_record_batch()
-            column = [n for n in batch.schema.names if n.endswith("planner_definition")]
-            if column:
-                definition = json.loads(batch.column(column[0])[0].as_py()[0])
-    if definition is None or not samples or definition.get("format") != FORMAT:
+    application, chunks = _trajectory_chunks(path)
+    if not chunks.keys() & {_DEFINITION, _SAMPLES, _END} and application != APPLICATION_ID:
         raise RecordingError(f"{path}: not a planner recording (no trajectory definition of format {FORMAT})")
-    times = np.concatenate([t for t, _ in samples])
-    positions = np.concatenate([v for _, v in samples])
-    order = np.argsort(times, kind="stable")
-    coefficients = np.array(definition["coefficients"]).reshape(definition["coefficients_shape"])
-    trajectory = PiecewisePolynomial(np.array(definition["durations_s"]), coefficients, definition["via_knots"])
-    limits = JointLimits(*(np.array(definition["limits"][k], dtype=float) for k in ("lower", "upper", *QUANTITIES)))
-    return RecordedPlan(times[order], positions[order], trajectory, limits, list(definition["joint_names"]))
+    definition_text = _single_text(path, chunks.get(_DEFINITION, []), "planner_definition")
+    if definition_text is None:
+        raise RecordingError(f"{path}: recording is incomplete: no trajectory/definition")
+    names, trajectory, limits = _definition(path, definition_text)
+    end_text = _single_text(path, chunks.get(_END, []), "planner_end")
+    if end_text is None:
+        raise RecordingError(f"{path}: recording is incomplete: no end marker (trajectory/end, written last); "
+                             "the file was cut short")
+    count, rate_hz, span = _end(path, end_text, trajectory.total_time)
+    times_ns, positions = _samples(path, chunks.get(_SAMPLES, []), len(names))
+    _require_complete(path, times_ns, count, rate_hz, span)
+    return RecordedPlan(times_ns / 1e9, positions, trajectory, limits, names, rate_hz)
+
+
+def _trajectory_chunks(path: Path) -> tuple[str, dict[str, list]]:
+    """The recording's application id and its ``trajectory/...`` chunks by entity path."""
+    import rerun.chunk as rc
+
+    try:
+        with warnings.catch_warnings():  # rerun warns about files without a footer; the checks below say it
+            warnings.simplefilter("ignore")
+            reader = rc.RrdReader(str(path))
+            stores = reader.recordings()
+            chunks = reader.stream().filter(content="/trajectory/**").to_chunks()
+    except Exception as exc:  # rerun raises plain exceptions for corrupt files
+        said = (str(exc).splitlines() or [type(exc).__name__])[0]
+        raise RecordingError(f"{path}: not a readable Rerun recording ({said})") from None
+    if len(stores) != 1:
+        raise RecordingError(f"{path}: holds {len(stores)} recordings; a planner recording holds one")
+    by_entity: dict[str, list] = {}
+    for chunk in chunks:
+        by_entity.setdefault(chunk.entity_path, []).append(chunk)
+    return stores[0].application_id, by_entity
+
+
+def _single_text(path: Path, chunks: list, component: str) -> str | None:
+    """The one static text ``component`` of an entity's ``chunks``; None when there are no chunks."""
+    if not chunks:
+        return None
+    entity = chunks[0].entity_path.lstrip("/")
+    values = []
+    for chunk in chunks:
+        batch = chunk.to_record_batch()
+        columns = [n for n in batch.schema.names if n == component or n.endswith(f":{component}")]
+        if not chunk.is_static or len(columns) != 1:
+            raise RecordingError(f"{path}: {entity} holds no static {component} text")
+        values += batch.column(columns[0]).to_pylist()
+    if len(values) != 1 or not isinstance(values[0], list) or len(values[0]) != 1 or not isinstance(values[0][0], str):
+        raise RecordingError(f"{path}: {entity} must hold one {component} text, got {shown(values)}")
+    return values[0][0]
+
+
+def _json_object(where: str, text: str) -> dict:
+    try:
+        value = json.loads(text)
+    except (ValueError, RecursionError) as exc:
+        raise RecordingError(f"{where}: not JSON ({exc}): {shown(text)}") from None
+    if not isinstance(value, dict):
+        raise RecordingError(f"{where}: must be a JSON object, got {shown(value)}")
+    return value
+
+
+def _seconds(ns) -> str:
+    """A recorded time [ns] as text in seconds."""
+    return f"{float(ns) / 1e9!r} s"
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _is_count(value) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+
+
+def _numbers(where: str, data: dict, key: str, count: int | None = None, *, infinite: bool = False) -> np.ndarray:
+    """``data[key]`` as a float vector: a JSON list of numbers, ``count`` long if given, never NaN.
+
+    Args:
+        infinite: whether +-inf is allowed (absent limits); otherwise every entry is finite.
+    """
+    value = data.get(key)
+    if not isinstance(value, list) or not all(_is_number(v) for v in value):
+        raise RecordingError(f"{where}: {key} must be a list of numbers, got {shown(value)}")
+    if count is not None and len(value) != count:
+        raise RecordingError(f"{where}: {key} must hold {count} numbers, got {len(value)}")
+    array = np.array(value, dtype=float)
+    bad = np.flatnonzero(np.isnan(array) if infinite else ~np.isfinite(array))
+    if bad.size:
+        raise RecordingError(f"{where}: {key}[{bad[0]}] is {array[bad[0]]}, not a {'number' if infinite else 'finite number'}")
+    return array
+
+
+def _definition(path: Path, text: str) -> tuple[list[str], PiecewisePolynomial, JointLimits]:
+    """Joint names, trajectory and limits from the ``trajectory/definition`` text, every field checked."""
+    where = f"{path}: trajectory/definition"
+    data = _json_object(where, text)
+    if data.get("format") != FORMAT:
+        raise RecordingError(f"{where}: format {shown(data.get('format'))}, expected {FORMAT!r} "
+                             "(not a planner recording, or one from another planner version)")
+    names = data.get("joint_names")
+    if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
+        raise RecordingError(f"{where}: joint_names must be a non-empty list of texts, got {shown(names)}")
+    durations = _numbers(where, data, "durations_s")
+    shape = data.get("coefficients_shape")
+    if not (isinstance(shape, list) and len(shape) == 3 and all(_is_count(n) for n in shape)
+            and shape[:2] == [len(durations), len(names)] and shape[2] >= 1):
+        raise RecordingError(f"{where}: coefficients_shape must be [{len(durations)} segments, {len(names)} joints, "
+                             f"coefficients per polynomial], got {shown(shape)}")
+    coefficients = _numbers(where, data, "coefficients", math.prod(shape))
+    knots = data.get("via_knots")
+    if not (isinstance(knots, list) and all(_is_count(k) and k <= len(durations) for k in knots)
+            and all(a <= b for a, b in zip(knots, knots[1:]))):  # repeated via-points share a knot
+        raise RecordingError(f"{where}: via_knots must be non-decreasing knot indices 0..{len(durations)}, "
+                             f"got {shown(knots)}")
+    limits = data.get("limits")
+    if not isinstance(limits, dict):
+        raise RecordingError(f"{where}: limits must be an object of {', '.join(_LIMIT_FIELDS)}, got {shown(limits)}")
+    bounds = [_numbers(f"{where}: limits", limits, key, len(names), infinite=True) for key in _LIMIT_FIELDS]
+    try:
+        return (names, PiecewisePolynomial(durations, coefficients.reshape(shape), np.array(knots, dtype=int)),
+                JointLimits(*bounds, names=tuple(names)))
+    except InputError as exc:
+        raise RecordingError(f"{where}: {exc}") from None
+
+
+def _end(path: Path, text: str, total_time: float) -> tuple[int, float, tuple[float, float]]:
+    """Sample count, rate [Hz] and time span [s] from the ``trajectory/end`` text, checked against the definition."""
+    where = f"{path}: trajectory/end"
+    data = _json_object(where, text)
+    count = data.get("sample_count")
+    if not _is_count(count) or count < 1:
+        raise RecordingError(f"{where}: sample_count must be a positive integer, got {shown(count)}")
+    rate = data.get("sample_rate_hz")
+    if not _is_number(rate) or not math.isfinite(rate) or rate <= 0:
+        raise RecordingError(f"{where}: sample_rate_hz must be a finite number > 0, got {shown(rate)}")
+    span = _numbers(where, data, "time_span_s", 2)
+    if abs(span[0]) > 1e-9 or abs(span[1] - total_time) > 1e-9 * max(1.0, total_time):
+        raise RecordingError(f"{where}: time_span_s {shown(span.tolist())} is not the trajectory's "
+                             f"[0, {total_time!r}] s")
+    return count, float(rate), (float(span[0]), float(span[1]))
+
+
+def _samples(path: Path, chunks: list, joints: int) -> tuple[np.ndarray, np.ndarray]:
+    """Sample times [ns] (N,) and positions [rad] (N, joints) of ``trajectory/samples``, sorted by time."""
+    import pyarrow as pa
+
+    where = f"{path}: trajectory/samples"
+    times, rows = [], []
+    for chunk in chunks:
+        batch = chunk.to_record_batch()
+        if "time" not in batch.schema.names or batch.schema.field("time").type != pa.duration("ns"):
+            raise RecordingError(f"{where}: not logged on the duration timeline 'time'")
+        if _SCALARS not in batch.schema.names:
+            raise RecordingError(f"{where}: holds no {_SCALARS} column")
+        column = batch.column("time")
+        if column.null_count:
+            raise RecordingError(f"{where}: {column.null_count} samples without a time")
+        times.append(column.cast(pa.int64()).to_numpy(zero_copy_only=False))
+        rows += batch.column(_SCALARS).to_pylist()
+    if not rows:
+        raise RecordingError(f"{path}: recording is incomplete: no trajectory/samples")
+    times_ns = np.concatenate(times)
+    for i, row in enumerate(rows):
+        if not isinstance(row, list) or len(row) != joints or not all(_is_number(v) for v in row):
+            raise RecordingError(f"{where}: the sample at {_seconds(times_ns[i])} holds {shown(row)}, "
+                                 f"expected {joints} joint positions")
+    positions = np.array(rows, dtype=float).reshape(len(rows), joints)
+    bad = np.argwhere(~np.isfinite(positions))
+    if bad.size:
+        i, j = (int(k) for k in bad[0])
+        raise RecordingError(f"{where}: joint {j + 1} at {_seconds(times_ns[i])} is {positions[i, j]}")
+    order = np.argsort(times_ns, kind="stable")
+    return times_ns[order], positions[order]
+
+
+def _require_complete(path: Path, times_ns: np.ndarray, count: int, rate_hz: float,
+                      span: tuple[float, float]) -> None:
+    """Samples as the end marker says: ``count`` of them from span[0] to span[1], none twice, no gap > 1/rate."""
+    incomplete = f"{path}: recording is incomplete:"
+    if len(times_ns) != count:
+        raise RecordingError(f"{incomplete} {len(times_ns)} of the {count} samples the end marker announces")
+    steps = np.diff(times_ns)
+    if np.any(steps == 0):
+        raise RecordingError(f"{incomplete} two samples at {_seconds(times_ns[np.argmax(steps == 0)])}")
+    start, end = span[0] * 1e9, span[1] * 1e9
+    if abs(times_ns[0] - start) > _TIME_QUANTUM_NS:
+        raise RecordingError(f"{incomplete} samples start at {_seconds(times_ns[0])}, not at {span[0]!r} s")
+    if abs(times_ns[-1] - end) > _TIME_QUANTUM_NS + 1e-12 * end:
+        raise RecordingError(f"{incomplete} samples end at {_seconds(times_ns[-1])}, not at the total time "
+                             f"{span[1]!r} s")
+    period = 1e9 / rate_hz
+    if steps.size and steps.max() > period + _TIME_QUANTUM_NS:
+        k = int(np.argmax(steps))
+        raise RecordingError(f"{incomplete} no samples between {_seconds(times_ns[k])} and "
+                             f"{_seconds(times_ns[k + 1])} (sample period {1 / rate_hz!r} s)")
+
+
+# ---------------------------------------------------------------------------- the viewer
+
+#: How long ``open_in_viewer`` watches the viewer for a failure at start-up [s].
+VIEWER_STARTUP_S = 1.5
+#: The command that opens a recording in the Rerun viewer (the file is appended).
+VIEWER_COMMAND = (sys.executable, "-m", "rerun")
+
+
+def has_display() -> bool:
+    """Whether a window can be opened: always on macOS and Windows, elsewhere with DISPLAY or WAYLAND_DISPLAY set."""
+    if os.name != "posix" or sys.platform == "darwin":
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+def open_in_viewer(path: Path, *, startup_s: float = VIEWER_STARTUP_S) -> None:
+    """Open the recording ``path`` in the Rerun viewer, a process of its own that outlives this one.
+
+    Raises:
+        PlannerError: no display to show the viewer on (checked before starting it), the viewer
+            cannot be started, or it exits with an error within ``startup_s`` [s].
+    """
+    alternatives = (f"check it without a viewer with `planner replay {path} --check`, export its samples with "
+                    "--export-csv PATH, or open it on a machine with a display (or under xvfb-run)")
+    if not has_display():
+        raise PlannerError(f"no display for the Rerun viewer (neither DISPLAY nor WAYLAND_DISPLAY is set): "
+                           f"{alternatives}")
+    with tempfile.TemporaryFile() as log:  # the viewer's output, shown only if it fails at start-up
+        try:
+            viewer = subprocess.Popen([*VIEWER_COMMAND, str(path)], stdout=log, stderr=subprocess.STDOUT)
+        except OSError as exc:
+            raise PlannerError(f"cannot start the Rerun viewer: {exc}") from None
+        try:
+            code = viewer.wait(timeout=startup_s)
+        except subprocess.TimeoutExpired:
+            return  # still running: it is showing the recording
+        if code == 0:
+            return
+        log.seek(0)
+        lines = log.read().decode(errors="replace").strip().splitlines()
+        said = f" ({shown(lines[-1].strip(), 300)})" if lines else ""  # its last line says why
+        raise PlannerError(f"the Rerun viewer exited with code {code}{said}; {alternatives}")

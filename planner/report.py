@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -28,7 +29,9 @@ def plot_profiles(trajectory: PiecewisePolynomial, limits: JointLimits, path: Pa
     """Position, velocity, acceleration and jerk of every joint against time, as PNG.
 
     Dashed lines in each joint's colour mark its limits; dotted grey lines the
-    via-point times.
+    via-point times. The title and joint names are plain text, whatever they hold
+    (``$...$`` is not mathtext, a leading ``_`` does not hide a joint); characters
+    the font lacks are drawn as boxes, without a warning.
     """
     import matplotlib
     matplotlib.use("Agg")
@@ -36,24 +39,29 @@ def plot_profiles(trajectory: PiecewisePolynomial, limits: JointLimits, path: Pa
 
     times, values = trajectory.sample(rate_hz)
     names = joint_names or [f"J{j + 1}" for j in range(trajectory.joint_count)]
-    figure, axes = plt.subplots(4, 1, figsize=(11, 12), sharex=True)
-    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    bounds = [(limits.lower, limits.upper)] + [(-m, m) for m in limits.magnitudes]
-    for k, axis in enumerate(axes):
-        for j in range(trajectory.joint_count):
-            colour = colours[j % len(colours)]
-            axis.plot(times, np.rad2deg(values[k, :, j]), color=colour, label=names[j], linewidth=1.4)
-            for bound in (bounds[k][0][j], bounds[k][1][j]):
-                if np.isfinite(bound):
-                    axis.axhline(np.rad2deg(bound), color=colour, linestyle="--", linewidth=0.7, alpha=0.6)
-        for t in trajectory.via_times:
-            axis.axvline(t, color="0.6", linestyle=":", linewidth=0.8)
-        axis.set_ylabel(f"{('position', *QUANTITIES)[k]} [{_UNITS_DEG[k]}]")
-        axis.grid(alpha=0.3)
-    axes[0].legend(ncol=min(trajectory.joint_count, 7), loc="upper center", bbox_to_anchor=(0.5, 1.25), fontsize=8)
-    axes[-1].set_xlabel("time [s]")
-    if title:
-        figure.suptitle(title)
-    figure.tight_layout()
-    figure.savefig(path, dpi=110)
-    plt.close(figure)
+    with matplotlib.rc_context({"text.parse_math": False}), warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=r"Glyph \d+ .* missing from font", category=UserWarning)
+        figure, axes = plt.subplots(4, 1, figsize=(11, 12), sharex=True)
+        colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+        bounds = [(limits.lower, limits.upper)] + [(-m, m) for m in limits.magnitudes]
+        for k, axis in enumerate(axes):
+            lines = []
+            for j in range(trajectory.joint_count):
+                colour = colours[j % len(colours)]
+                lines += axis.plot(times, np.rad2deg(values[k, :, j]), color=colour, linewidth=1.4)
+                for bound in (bounds[k][0][j], bounds[k][1][j]):
+                    if np.isfinite(bound):
+                        axis.axhline(np.rad2deg(bound), color=colour, linestyle="--", linewidth=0.7, alpha=0.6)
+            for t in trajectory.via_times:
+                axis.axvline(t, color="0.6", linestyle=":", linewidth=0.8)
+            axis.set_ylabel(f"{('position', *QUANTITIES)[k]} [{_UNITS_DEG[k]}]")
+            axis.grid(alpha=0.3)
+            if k == 0:  # labels given explicitly: legend() would drop names starting with "_"
+                axis.legend(lines, names, ncol=min(trajectory.joint_count, 7), loc="upper center",
+                            bbox_to_anchor=(0.5, 1.25), fontsize=8)
+        axes[-1].set_xlabel("time [s]")
+        if title:
+            figure.suptitle(title)
+        figure.tight_layout()
+        figure.savefig(path, dpi=110)
+        plt.close(figure)

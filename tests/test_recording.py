@@ -1,14 +1,20 @@
 import json
+import os
+import struct
+import subprocess
+import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
+import pyarrow as pa
 import pytest
 
-from planner import RecordingError
+from planner import JointLimits, RecordingError, get_family
 from planner.cli import main
 from planner.export import read_trajectory_csv
 from planner.pipeline import plan
-from planner.recording import read_recording
+from planner.recording import end_marker, read_recording, trajectory_definition, write_recording
 
 ROOT = Path(__file__).resolve().parents[1]
 TASKS = ROOT / "scripts" / "tasks"
@@ -80,15 +86,6 @@ def test_missing_corrupt_and_foreign_recordings(tmp_path, capsys):
     assert err.startswith("error: ") and err.count("\n") == 1
 
 
-def test_truncated_recording_is_an_error(planned, tmp_path):
-    _, out = planned
-    truncated = tmp_path / "truncated.rrd"
-    data = (out / "trajectory.rrd").read_bytes()
-    truncated.write_bytes(data[: len(data) // 3])
-    with pytest.raises(RecordingError):
-        read_recording(truncated)
-
-
 def test_failure_midway_leaves_nothing(tmp_path, monkeypatch):
     import planner.pipeline as pipeline
 
@@ -100,10 +97,383 @@ def test_failure_midway_leaves_nothing(tmp_path, monkeypatch):
     assert list(tmp_path.iterdir()) == []
 
 
-def test_export_to_unwritable_place_leaves_nothing(planned, tmp_path, capsys):
+# ---------------------------------------------------------------------------- completeness (cut or gappy recordings)
+
+
+def rrd_message_offsets(data: bytes) -> tuple[list[int], int]:
+    """Offsets of the messages of an .rrd (12-byte file header, then (kind u64, length u64) + payload each),
+    and the offset of the End message (kind 0) after which only the footer follows."""
+    assert data[:4] == b"RRF2"
+    offsets, position = [], 12
+    while position + 16 <= len(data):
+        kind, length = struct.unpack_from("<QQ", data, position)
+        offsets.append(position)
+        if kind == 0:
+            return offsets, position
+        position += 16 + length
+    raise AssertionError("no End message: the .rrd layout changed")
+
+
+def test_every_cut_of_a_recording_is_an_error_or_reads_fully(planned, tmp_path):
     _, out = planned
+    data = (out / "trajectory.rrd").read_bytes()
+    full = read_recording(out / "trajectory.rrd")
+    offsets, end = rrd_message_offsets(data)
+    cuts = sorted(set(offsets) | set(range(0, len(data), len(data) // 25)) | {end + 1, len(data) - 1})
+    cut = tmp_path / "cut.rrd"
+    for size in cuts:
+        cut.write_bytes(data[:size])
+        if size < end:  # a message is missing: the end marker (written last) at least
+            with pytest.raises(RecordingError):
+                read_recording(cut)
+            continue
+        try:  # only the footer is missing or cut: everything is there, or Rerun refuses the cut footer
+            recorded = read_recording(cut)
+        except RecordingError:
+            assert size > end
+        else:
+            np.testing.assert_array_equal(recorded.positions, full.positions)
+    cut.write_bytes(data[:offsets[-2]])  # cleanly between two messages: the last one (the marker) is lost
+    with pytest.raises(RecordingError, match="recording is incomplete: no end marker"):
+        read_recording(cut)
+
+
+RATE_HZ = 50.0
+
+
+def small_plan():
+    """A 2-joint cubic trajectory (T = 4 s) with limits, sampled at RATE_HZ: what a recording holds."""
+    trajectory = get_family("cubic").build([[0.0, 0.0], [0.5, -1.0], [1.0, 0.5]], [1.0, 1.0, 1.0, 1.0])
+    limits = JointLimits.create(2, lower=[-3.0, -3.0], velocity=[5.0, 5.0], jerk=[100.0, 100.0])
+    times, values = trajectory.sample(RATE_HZ)
+    return trajectory, limits, times, values[0]
+
+
+def write_like_planner(path, *, definition="valid", times="valid", positions="valid", end="valid",
+                       rows=None, static_samples=False):
+    """A recording written with rerun directly at the planner's entity paths; "valid" parts are the planner's own,
+    None leaves a part out, and ``rows`` logs samples one by one as (time, values)."""
+    import rerun as rr
+
+    trajectory, limits, valid_times, valid_positions = small_plan()
+    times = valid_times if isinstance(times, str) else times
+    positions = valid_positions if isinstance(positions, str) else positions
+    if isinstance(definition, str) and definition == "valid":
+        definition = json.dumps(trajectory_definition(trajectory, limits, ["shoulder", "elbow"]))
+    if isinstance(end, str) and end == "valid":
+        end = json.dumps(end_marker(valid_times, RATE_HZ))
+    rec = rr.RecordingStream("planner")
+    rec.save(str(path))
+    if definition is not None:
+        rec.log("trajectory/definition", rr.AnyValues(planner_definition=definition), static=True)
+    if rows is not None:
+        for t, row in rows:
+            rec.set_time("time", duration=t)
+            rec.log("trajectory/samples", rr.Scalars(row))
+    elif static_samples:
+        rec.log("trajectory/samples", rr.Scalars(positions[0]), static=True)
+    elif times is not None:
+        rec.send_columns("trajectory/samples", indexes=[rr.TimeColumn("time", duration=times)],
+                         columns=rr.Scalars.columns(scalars=positions))
+    rec.flush()
+    if end is not None:
+        rec.log("trajectory/end", rr.AnyValues(planner_end=end), static=True)
+    rec.flush()
+    rec.disconnect()
+    return path
+
+
+def test_a_recording_written_like_the_planner_reads_back(tmp_path):
+    trajectory, limits, times, positions = small_plan()
+    recorded = read_recording(write_like_planner(tmp_path / "ok.rrd"))
+    assert recorded.joint_names == ["shoulder", "elbow"] and recorded.rate_hz == RATE_HZ
+    np.testing.assert_allclose(recorded.times, times, atol=1e-9)
+    np.testing.assert_array_equal(recorded.positions, positions)
+    assert recorded.check().passed
+
+
+_TIMES = small_plan()[2]
+_POSITIONS = small_plan()[3]
+_PERIOD = 1.0 / RATE_HZ
+INCOMPLETE = {
+    "no end marker": dict(end=None),
+    "no samples": dict(times=None),
+    "no definition": dict(definition=None),
+    "last samples missing": dict(times=_TIMES[:-5], positions=_POSITIONS[:-5]),
+    "first samples missing": dict(times=_TIMES[3:], positions=_POSITIONS[3:]),
+    "a sample missing inside": dict(times=np.delete(_TIMES, 100), positions=np.delete(_POSITIONS, 100, axis=0)),
+    "a gap, the count as announced": dict(
+        times=np.delete(_TIMES, 100), positions=np.delete(_POSITIONS, 100, axis=0),
+        end=json.dumps({**end_marker(_TIMES, RATE_HZ), "sample_count": len(_TIMES) - 1})),
+    "samples shifted by half a period": dict(times=_TIMES + _PERIOD / 2),
+    "samples shifted by 2 ns": dict(times=_TIMES + 2e-9),
+    "samples stretched beyond the end": dict(times=_TIMES * 1.01),
+    "a duplicated time": dict(times=np.concatenate([_TIMES[:50], [_TIMES[50], _TIMES[50]], _TIMES[52:]])),
+    "a duplicated sample": dict(times=np.insert(_TIMES, 10, _TIMES[10]), positions=np.insert(_POSITIONS, 10,
+                                                                                              _POSITIONS[10], axis=0)),
+    "end marker's span shorter than the trajectory": dict(
+        end=json.dumps({**end_marker(_TIMES, RATE_HZ), "time_span_s": [0.0, 3.0]})),
+}
+
+
+@pytest.mark.parametrize("case", INCOMPLETE)
+def test_incomplete_recordings_are_errors(case, tmp_path, capsys):
+    path = write_like_planner(tmp_path / "r.rrd", **INCOMPLETE[case])
+    with pytest.raises(RecordingError, match="recording is incomplete|trajectory/end"):
+        read_recording(path)
+    assert main(["replay", str(path), "--check"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and captured.err.startswith("error: ") and captured.err.count("\n") == 1
+
+
+# ---------------------------------------------------------------------------- malformed content at the planner's paths
+
+
+def _definition(**changes):
+    trajectory, limits, _, _ = small_plan()
+    document = trajectory_definition(trajectory, limits, ["shoulder", "elbow"])
+    for key, value in changes.items():
+        if "." in key:
+            outer, inner = key.split(".")
+            document[outer] = {**document[outer], inner: value}
+        else:
+            document[key] = value
+    return json.dumps(document)
+
+
+MALFORMED = {  # case: (write_like_planner arguments, a text the message must hold)
+    "definition not JSON": (dict(definition="{not json"), "not JSON"),
+    "definition a JSON list": (dict(definition="[1, 2, 3]"), "must be a JSON object"),
+    "definition a JSON text": (dict(definition='"durations"'), "must be a JSON object"),
+    "definition deeply nested": (dict(definition="[" * 100000 + "]" * 100000), "not JSON"),
+    "definition a number, not a text": (dict(definition=pa.array([5])), "planner_definition"),
+    "definition two texts": (dict(definition=["{}", "{}"]), "planner_definition"),
+    "format missing": (dict(definition=_definition(format=None)), "format"),
+    "format of another version": (dict(definition=_definition(format="planner-recording/v1")), "format"),
+    "joint_names not a list": (dict(definition=_definition(joint_names="shoulder")), "joint_names"),
+    "joint_names of numbers": (dict(definition=_definition(joint_names=[1, 2])), "joint_names"),
+    "joint_names empty": (dict(definition=_definition(joint_names=[])), "joint_names"),
+    "joint_names one too many": (dict(definition=_definition(joint_names=["a", "b", "c"])), "coefficients_shape"),
+    "durations_s a text": (dict(definition=_definition(durations_s="1, 1, 1, 1")), "durations_s"),
+    "durations_s NaN": (dict(definition=_definition(durations_s=[1.0, float("nan"), 1.0, 1.0])), "durations_s[1]"),
+    "durations_s infinite": (dict(definition=_definition(durations_s=[1.0, float("inf"), 1.0, 1.0])), "durations_s"),
+    "durations_s negative": (dict(definition=_definition(durations_s=[1.0, -1.0, 1.0, 3.0])), "durations"),
+    "durations_s booleans": (dict(definition=_definition(durations_s=[True, 1.0, 1.0, 1.0])), "durations_s"),
+    "durations_s one too few": (dict(definition=_definition(durations_s=[2.0, 1.0, 1.0])), "coefficients_shape"),
+    "coefficients_shape not 3 numbers": (dict(definition=_definition(coefficients_shape=[4, 8])), "coefficients_shape"),
+    "coefficients_shape of floats": (dict(definition=_definition(coefficients_shape=[4.0, 2.0, 4.0])),
+                                     "coefficients_shape"),
+    "coefficients_shape not the count": (dict(definition=_definition(coefficients_shape=[4, 2, 3])), "coefficients"),
+    "coefficients_shape huge": (dict(definition=_definition(coefficients_shape=[4, 2, 10**30])), "coefficients"),
+    "coefficients missing": (dict(definition=_definition(coefficients=None)), "coefficients"),
+    "coefficients with a text": (dict(definition=_definition(coefficients=["0"] * 32)), "coefficients"),
+    "coefficients with NaN": (dict(definition=_definition(coefficients=[float("nan")] * 32)), "coefficients[0]"),
+    "via_knots beyond the segments": (dict(definition=_definition(via_knots=[0, 2, 9])), "via_knots"),
+    "via_knots not integers": (dict(definition=_definition(via_knots=[0, 2.5, 4])), "via_knots"),
+    "via_knots decreasing": (dict(definition=_definition(via_knots=[4, 2, 0])), "via_knots"),
+    "limits not an object": (dict(definition=_definition(limits=[1, 2])), "limits"),
+    "limits without jerk": (dict(definition=_definition(**{"limits.jerk": None})), "jerk"),
+    "limits too short": (dict(definition=_definition(**{"limits.velocity": [5.0]})), "velocity"),
+    "limits too long": (dict(definition=_definition(**{"limits.upper": [1.0, 2.0, 3.0]})), "upper"),
+    "limits NaN": (dict(definition=_definition(**{"limits.acceleration": [float("nan"), 1.0]})), "acceleration[0]"),
+    "limits not positive": (dict(definition=_definition(**{"limits.velocity": [0.0, 1.0]})), "velocity"),
+    "limits an empty range": (dict(definition=_definition(**{"limits.upper": [-4.0, 1.0]})), "position range"),
+    "end marker not JSON": (dict(end="done"), "trajectory/end"),
+    "end marker count a text": (dict(end=json.dumps({**end_marker(_TIMES, RATE_HZ), "sample_count": "201"})),
+                                "sample_count"),
+    "end marker rate NaN": (dict(end=json.dumps({**end_marker(_TIMES, RATE_HZ), "sample_rate_hz": float("nan")})),
+                            "sample_rate_hz"),
+    "end marker span one number": (dict(end=json.dumps({**end_marker(_TIMES, RATE_HZ), "time_span_s": [4.0]})),
+                                   "time_span_s"),
+    "samples of one joint too few": (dict(positions=_POSITIONS[:, :1]), "expected 2 joint positions"),
+    "samples of one joint too many": (dict(positions=np.hstack([_POSITIONS, _POSITIONS[:, :1]])),
+                                      "expected 2 joint positions"),
+    "samples ragged": (dict(rows=[(t, q if k != 7 else q[:1]) for k, (t, q) in enumerate(zip(_TIMES, _POSITIONS))]),
+                       "expected 2 joint positions"),
+    "samples with NaN": (dict(positions=np.where(np.arange(len(_TIMES))[:, None] == 9, np.nan, _POSITIONS)),
+                         "joint 1 at 0.18 s is nan"),
+    "samples static": (dict(static_samples=True), "timeline"),
+}
+
+
+@pytest.mark.parametrize("case", MALFORMED)
+def test_malformed_recordings_are_errors_naming_the_field(case, tmp_path, capsys):
+    arguments, named = MALFORMED[case]
+    path = write_like_planner(tmp_path / "r.rrd", **arguments)
+    with pytest.raises(RecordingError) as error:
+        read_recording(path)
+    assert named in str(error.value)
+    assert main(["replay", str(path), "--check"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and captured.err.startswith("error: ") and captured.err.count("\n") == 1
+    assert len(captured.err) < 800
+
+
+# ---------------------------------------------------------------------------- replay --check exit codes
+
+
+def test_check_fails_on_violated_limits(tmp_path, capsys):
+    tight = _definition(**{"limits.velocity": [0.1, 5.0]})
+    assert main(["replay", str(write_like_planner(tmp_path / "r.rrd", definition=tight)), "--check"]) == 1
+    assert "VIOLATIONS: joint shoulder velocity 28.6479 deg/s exceeds its limit 5.72958 deg/s" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("offset", [1e-6, 1e-8])
+def test_check_fails_on_samples_off_the_trajectory(offset, tmp_path, capsys):
+    positions = _POSITIONS.copy()
+    positions[77, 1] += offset
+    assert main(["replay", str(write_like_planner(tmp_path / "r.rrd", positions=positions)), "--check"]) == 1
+    out = capsys.readouterr().out
+    assert "limits hold" in out and f"samples vs trajectory {offset:.2e} rad" in out
+
+
+def test_check_passes_only_when_everything_holds(tmp_path, capsys):
+    assert main(["replay", str(write_like_planner(tmp_path / "r.rrd")), "--check"]) == 0
+    assert "2 joints, 201 samples, T = 4.0000 s" in capsys.readouterr().out
+
+
+# ---------------------------------------------------------------------------- names
+
+
+NAMES = ["shoulder pan", "wrist/3", "$x^2$", "\\frac{", "a\\b", "关节", "😀", "x.y", "*", "[0]", "a:b", "limits"]
+
+
+def test_any_joint_and_task_name_is_logged_as_one_entity_and_read_back(tmp_path, capfd):
+    import rerun as rr
+    import rerun.chunk as rc
+
+    trajectory, limits, _, _ = small_plan()
+    via = np.repeat(np.linspace(0.0, 1.0, 3)[:, None], len(NAMES), axis=1)
+    trajectory = get_family("cubic").build(via, trajectory.durations)
+    limits = JointLimits.create(len(NAMES), upper=[2.0] * len(NAMES), velocity=[5.0] * len(NAMES))
+    result = SimpleNamespace(
+        trajectory=trajectory, joint_names=NAMES, limits=limits, robot=None,
+        task=SimpleNamespace(name="task $\\frac{$ / 关节 😀", family="cubic", sample_rate_hz=RATE_HZ),
+        optimization=SimpleNamespace(algorithm="test", feasible=True))
+    path = tmp_path / "names.rrd"
+    write_recording(result, path)
+    recorded = read_recording(path)
+    assert recorded.joint_names == NAMES and recorded.check().passed
+    entities = {chunk.entity_path for chunk in rc.RrdReader(str(path)).stream().to_chunks()}
+    for name in NAMES:
+        for profile in ("position", "velocity", "acceleration", "jerk"):
+            assert rr.new_entity_path(["profiles", profile, name]) in entities
+        assert rr.new_entity_path(["profiles", "position", "limits", name, "upper"]) in entities
+        assert rr.new_entity_path(["profiles", "position", "via_points", name]) in entities
+    assert len([e for e in entities if e.startswith("/profiles/jerk/") and "/limits/" not in e]) == len(NAMES)
+    assert capfd.readouterr().err == ""  # Rerun warns on stderr about paths it has to reinterpret
+
+
+# ---------------------------------------------------------------------------- the viewer
+
+
+@pytest.fixture
+def recording(tmp_path):
+    return write_like_planner(tmp_path / "r.rrd")
+
+
+@pytest.fixture
+def no_viewer(monkeypatch):
+    """Fail the test if a viewer process is started."""
+    def refuse(*args, **kwargs):
+        raise AssertionError("a viewer was started")
+    monkeypatch.setattr(subprocess, "Popen", refuse)
+
+
+@pytest.mark.parametrize("platform", ["linux", "freebsd13"])
+def test_replay_without_a_display_fails_before_starting_the_viewer(platform, recording, monkeypatch, no_viewer,
+                                                                   capsys):
+    monkeypatch.setattr(sys, "platform", platform)
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.setenv("WAYLAND_DISPLAY", "")
+    assert main(["replay", str(recording)]) != 0
+    err = capsys.readouterr().err
+    assert err.startswith("error: no display") and err.count("\n") == 1
+    assert "--check" in err and "--export-csv" in err and "machine with a display" in err
+
+
+def test_replay_reports_a_viewer_that_fails_at_start_up(recording, monkeypatch, capsys):
+    import planner.recording as module
+
+    monkeypatch.setenv("DISPLAY", ":99")
+    monkeypatch.setattr(module, "VIEWER_COMMAND",
+                        (sys.executable, "-c", "import sys; print('starting'); sys.exit('cannot open display :99')"))
+    assert main(["replay", str(recording)]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "exited with code 1" in err and "cannot open display :99" in err
+
+
+def test_replay_returns_once_the_viewer_is_up(recording, monkeypatch, capsys):
+    started = []
+
+    class RunningViewer:
+        def __init__(self, command, **kwargs):
+            started.append(command)
+
+        def wait(self, timeout=None):
+            raise subprocess.TimeoutExpired("rerun", timeout)
+    monkeypatch.setenv("WAYLAND_DISPLAY", "wayland-0")
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.setattr(subprocess, "Popen", RunningViewer)
+    assert main(["replay", str(recording)]) == 0
+    assert started[0][-1] == str(recording) and capsys.readouterr().err == ""
+
+
+def test_a_bad_recording_fails_before_the_viewer(tmp_path, monkeypatch, no_viewer):
+    monkeypatch.setenv("DISPLAY", ":0")
+    assert main(["replay", str(write_like_planner(tmp_path / "r.rrd", end=None))]) == 2
+
+
+# ---------------------------------------------------------------------------- --export-csv
+
+
+def test_export_to_a_folder_fails_before_reading(tmp_path, capsys):
     target = tmp_path / "x.csv"
-    target.mkdir()  # a folder where the file should go: refused before anything is written
-    assert main(["replay", str(out / "trajectory.rrd"), "--export-csv", str(target)]) == 2
-    assert capsys.readouterr().err.count("\n") == 1
-    assert [p.name for p in tmp_path.iterdir()] == ["x.csv"] and target.is_dir()
+    target.mkdir()
+    assert main(["replay", str(tmp_path / "missing.rrd"), "--export-csv", str(target)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"output file {target} is an existing folder" in err
+    assert [p.name for p in tmp_path.iterdir()] == ["x.csv"] and list(target.iterdir()) == []
+
+
+@pytest.mark.parametrize("below", ["x.csv", "sub/x.csv"])
+def test_export_below_a_file_fails(below, recording, tmp_path, capsys):
+    blocker = tmp_path / "notes.txt"
+    blocker.write_text("a file")
+    target = blocker / below
+    assert main(["replay", str(recording), "--export-csv", str(target)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(target) in err and f"lies under {blocker}, which is a file" in err
+    assert blocker.read_text() == "a file"
+
+
+def test_export_over_the_recording_itself_fails(recording, capsys):
+    before = recording.read_bytes()
+    assert main(["replay", str(recording), "--export-csv", str(recording)]) == 2
+    assert "is the recording itself" in capsys.readouterr().err and recording.read_bytes() == before
+
+
+@pytest.mark.parametrize("umask", [0o022, 0o027, 0o002])
+def test_export_gets_the_usual_permissions(umask, recording, tmp_path):
+    previous = os.umask(umask)
+    try:
+        assert main(["replay", str(recording), "--export-csv", str(tmp_path / "out" / "x.csv")]) == 0
+    finally:
+        os.umask(previous)
+    assert (tmp_path / "out" / "x.csv").stat().st_mode & 0o777 == 0o666 & ~umask
+    times, values = read_trajectory_csv(tmp_path / "out" / "x.csv")
+    assert len(times) == 201 and times[-1] == pytest.approx(4.0)
+
+
+def test_a_plan_with_repeated_via_points_replays_and_checks(tmp_path, capsys):
+    """Repeated via-points share a knot: the recording keeps them and --check passes."""
+    import yaml
+    task = {"version": 1, "waypoints": {"joints_deg": [[0, 0], [30, 10], [30, 10], [60, -20]]},
+            "limits": {"velocity_deg_s": [40, 40], "acceleration_deg_s2": [80, 80], "jerk_deg_s3": [300, 300]}}
+    (tmp_path / "task.yaml").write_text(yaml.safe_dump(task))
+    out = tmp_path / "out"
+    assert main(["plan", str(tmp_path / "task.yaml"), "--out", str(out), "--quiet"]) == 0
+    recorded = read_recording(out / "trajectory.rrd")
+    assert list(recorded.trajectory.via_knots) == [0, 2, 2, 4]
+    assert main(["replay", str(out / "trajectory.rrd"), "--check"]) == 0
+    assert "limits hold" in capsys.readouterr().out

@@ -1,0 +1,52 @@
+import logging
+import warnings
+
+import numpy as np
+import pytest
+
+from planner import get_family
+from planner.limits import JointLimits
+from planner.report import markdown_table, plot_profiles
+
+#: Names that are markup somewhere (mathtext, TeX, legend's hidden "_" labels, printf) or lack glyphs in the font.
+AWKWARD_NAMES = ["$x^2$", "$\\frac{$", "$x^$ and $y_$", "\\frac{", "_base", "100%", "a_b^c", "关节一", "مفصل", "😀 wrist", "a/b c", "$", ""]
+
+
+def trajectory_for(joints: int):
+    via = np.linspace(0.0, 1.0, 3)[:, None] * np.arange(1, joints + 1)[None]
+    return get_family("cubic").build(via, [1.0, 1.0, 1.0, 1.0])
+
+
+@pytest.mark.parametrize("name", AWKWARD_NAMES)
+def test_any_name_is_plain_text_without_warnings(name, tmp_path, capfd, caplog):
+    trajectory = trajectory_for(2)
+    limits = JointLimits.create(2, velocity=[10.0, 10.0])
+    path = tmp_path / "profiles.png"
+    with warnings.catch_warnings(record=True) as caught, caplog.at_level(logging.WARNING):
+        warnings.simplefilter("always")
+        plot_profiles(trajectory, limits, path, title=f"task {name}: cubic", joint_names=[name, "elbow"])
+    assert path.read_bytes().startswith(b"\x89PNG")
+    assert [str(w.message) for w in caught] == []
+    assert caplog.records == []
+    out, err = capfd.readouterr()
+    assert out == "" and err == ""
+
+
+def test_every_joint_is_in_the_legend(tmp_path, monkeypatch):
+    import matplotlib.axes
+
+    legends = []
+    original = matplotlib.axes.Axes.legend
+
+    def spy(self, *args, **kwargs):
+        legends.append(original(self, *args, **kwargs))
+        return legends[-1]
+    monkeypatch.setattr(matplotlib.axes.Axes, "legend", spy)
+    names = ["_base", "$q$", "关节"]
+    plot_profiles(trajectory_for(3), JointLimits.create(3), tmp_path / "p.png", joint_names=names)
+    assert [text.get_text() for text in legends[0].get_texts()] == names
+
+
+def test_markdown_table_cells():
+    table = markdown_table(["a", "b"], [[1.23456, float("inf")], ["x", 2]])
+    assert table.splitlines() == ["| a | b |", "|---|---|", "| 1.235 | - |", "| x | 2 |"]
