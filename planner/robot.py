@@ -4,7 +4,8 @@ A robot comes from a URDF file (with an optional ``<name>.limits.yaml`` beside
 it giving acceleration and jerk limits in degrees) or from example-robot-data
 by name. Joints that do not move the tool frame (a gripper's fingers, say)
 are locked at their neutral position with ``pinocchio.buildReducedModel``, so
-the planned joints are exactly those of the tool frame's kinematic chain.
+the planned joints are exactly those of the tool frame's kinematic chain, which
+must all be single-axis revolute joints (task values are in degrees).
 """
 
 from __future__ import annotations
