@@ -4,11 +4,18 @@ A robot comes from a URDF file (with an optional ``<name>.limits.yaml`` beside
 it giving acceleration and jerk limits in degrees) or from example-robot-data
 by name. Joints that do not move the tool frame (a gripper's fingers, say)
 are locked at their neutral position with ``pinocchio.buildReducedModel``, so
-the planned joints are exactly those of the tool frame's kinematic chain.
+the planned joints are exactly those of the tool frame's kinematic chain, which
+must all be single-axis revolute joints (task values are in degrees).
 """
 
 from __future__ import annotations
 
+import math
+import os
+import sys
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -17,10 +24,16 @@ import numpy as np
 import pinocchio as pin
 import yaml
 
-from .errors import RobotError
+from .errors import RobotError, shown
 from .limits import JointLimits
 
 _LIMIT_FILE_KEYS = {"acceleration_deg_s2": "acceleration", "jerk_deg_s3": "jerk"}
+#: Largest limits file read [bytes] (it holds two lists of numbers).
+_LIMIT_FILE_BYTES = 2**20
+#: Pinocchio's single-axis revolute joints, the only ones planned (task keys are in degrees).
+_REVOLUTE = ("JointModelRX", "JointModelRY", "JointModelRZ", "JointModelRevoluteUnaligned")
+#: Pinocchio's prismatic joints, named as such when refused.
+_PRISMATIC = ("JointModelPX", "JointModelPY", "JointModelPZ", "JointModelPrismaticUnaligned")
 
 
 @dataclass
@@ -29,7 +42,7 @@ class Robot:
 
     Attributes:
         name: robot name.
-        model, data: the reduced Pinocchio model (revolute or prismatic joints, nq == nv).
+        model, data: the reduced Pinocchio model (single-axis revolute joints only).
         tool_frame: name of the frame whose pose waypoints give; ``tool_frame_id`` its index.
         limits: ``JointLimits`` in SI units (position and velocity from the URDF,
             acceleration and jerk from the limits file where there is one).
@@ -57,8 +70,7 @@ class Robot:
     @cached_property
     def revolute(self) -> np.ndarray:
         """(nq,) whether each joint is revolute (angles that may be shifted by 2 pi)."""
-        return np.array([self.model.joints[j].shortname().startswith(("JointModelR", "JointModelRevolute"))
-                         for j in range(1, self.model.njoints)])
+        return np.array([self.model.joints[j].shortname() in _REVOLUTE for j in range(1, self.model.njoints)])
 
     def forward_kinematics(self, q) -> pin.SE3:
         """Pose of the tool frame in the world for joint positions ``q`` [rad]."""
@@ -75,12 +87,22 @@ class Robot:
 
     @classmethod
     def from_urdf(cls, path, tool_frame: str | None = None, package_dirs=()) -> "Robot":
-        """Load a URDF; ``tool_frame`` defaults to the last frame of the model."""
+        """Load a URDF; ``tool_frame`` defaults to the last frame of the model.
+
+        The URDF parser's own log lines are kept off stderr; the first of them goes into the error.
+        """
         path = Path(path)
-        try:
-            model = pin.buildModelFromUrdf(str(path))
-        except (RuntimeError, ValueError, OSError) as exc:
-            raise RobotError(f"cannot load URDF {path}: {str(exc).strip().splitlines()[0]}") from None
+        if not path.is_file():  # a device such as /dev/zero would be read without end
+            raise RobotError(f"cannot load URDF {path}: not an existing regular file")
+        with _stderr_captured() as parser_log:
+            try:
+                model = pin.buildModelFromUrdf(str(path))
+            except Exception as exc:  # the parser raises RuntimeError, ValueError, OSError, ...
+                failure = exc
+            else:
+                failure = None
+        if failure is not None:
+            raise RobotError(f"cannot load URDF {path}: {_first_line(str(failure))}{_detail(parser_log)}") from None
         extra = _read_limit_file(path.with_suffix(".limits.yaml"), model)
         return cls._build(model.name or path.stem, model, tool_frame, path, tuple(package_dirs), extra)
 
@@ -88,11 +110,20 @@ class Robot:
     def from_example_robot_data(cls, name: str, tool_frame: str | None = None) -> "Robot":
         """An example-robot-data robot by name (``ur5``, ``panda``, ...)."""
         from example_robot_data.robots_loader import ROBOTS
-        if name not in ROBOTS:
-            raise RobotError(f"unknown robot {name!r}; example-robot-data has: {', '.join(sorted(ROBOTS))}")
-        loader = ROBOTS[name]()
-        model = loader.robot.model
-        if model.joints[1].shortname() == "JointModelFreeFlyer":
+        if not isinstance(name, str) or name not in ROBOTS:
+            raise RobotError(f"unknown robot {shown(name)}; example-robot-data has: {', '.join(sorted(ROBOTS))}")
+        with _stderr_captured() as loader_log:
+            try:
+                loader = ROBOTS[name]()
+                model = loader.robot.model
+            except Exception as exc:  # a model this Pinocchio cannot build, missing files, ...
+                failure = exc
+            else:
+                failure = None
+        if failure is not None:
+            raise RobotError(f"robot {name!r} of example-robot-data cannot be loaded with Pinocchio {pin.__version__}: "
+                             f"{type(failure).__name__}: {_first_line(str(failure))}{_detail(loader_log)}") from None
+        if model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer":
             raise RobotError(f"robot {name!r} has a floating base; only fixed-base arms can be planned")
         package_dirs = tuple(Path(d) for d in (loader.model_path, Path(loader.model_path).parent))
         return cls._build(name, model, tool_frame, Path(loader.df_path), package_dirs, {})
@@ -102,19 +133,24 @@ class Robot:
         frame_names = [f.name for f in model.frames]
         if tool_frame is None:
             tool_frame = frame_names[-1]
-        if not model.existFrame(tool_frame):
-            raise RobotError(f"robot {name!r} has no frame {tool_frame!r}; frames: {', '.join(frame_names)}")
+        if not isinstance(tool_frame, str) or not model.existFrame(tool_frame):
+            raise RobotError(f"robot {shown(name)} has no frame {shown(tool_frame)}; frames: {', '.join(frame_names)}")
         parent = model.frames[model.getFrameId(tool_frame)].parentJoint
         chain = set(model.supports[parent])
         locked = [j for j in range(1, model.njoints) if j not in chain]
         reduced = pin.buildReducedModel(model, locked, pin.neutral(model)) if locked else model
         for j in range(1, reduced.njoints):
-            joint = reduced.joints[j]
-            if joint.nq != 1 or joint.nv != 1:
-                raise RobotError(f"joint {reduced.names[j]!r} ({joint.shortname()}) is not a single revolute "
-                                 f"or prismatic joint; it cannot be planned")
+            kind = reduced.joints[j].shortname()
+            if kind in _PRISMATIC:
+                raise RobotError(f"joint {reduced.names[j]!r} of robot {shown(name)} is prismatic ({kind}); only "
+                                 f"revolute joints are supported (task values are in degrees)")
+            if kind not in _REVOLUTE:
+                raise RobotError(f"joint {reduced.names[j]!r} of robot {shown(name)} is a {kind}; only revolute "
+                                 f"joints with one axis and position limits are supported")
         if reduced.nq == 0:
-            raise RobotError(f"frame {tool_frame!r} of robot {name!r} is not moved by any joint")
+            raise RobotError(f"frame {tool_frame!r} of robot {shown(name)} is not moved by any joint")
+        extra_limits = {quantity: np.array([values[reduced.names[j]] for j in range(1, reduced.njoints)])
+                        for quantity, values in extra_limits.items()}
         velocity = np.where(reduced.velocityLimit > 0, reduced.velocityLimit, np.inf)
         lower = np.where(np.isfinite(reduced.lowerPositionLimit), reduced.lowerPositionLimit, -np.inf)
         upper = np.where(np.isfinite(reduced.upperPositionLimit), reduced.upperPositionLimit, np.inf)
@@ -123,23 +159,89 @@ class Robot:
                    Path(urdf_path), package_dirs)
 
 
-def _read_limit_file(path: Path, model: pin.Model) -> dict[str, np.ndarray]:
-    """Acceleration and jerk limits [deg-based] from ``<robot>.limits.yaml``, in SI; {} if absent."""
+@contextmanager
+def _stderr_captured() -> Iterator[list[str]]:
+    """Point file descriptor 2 at a temporary file for the ``with`` block (C++ libraries log there);
+    the list yielded receives what was written, once the block ends. Restored in any case."""
+    sys.stderr.flush()
+    captured: list[str] = []
+    saved = os.dup(2)
+    try:
+        with tempfile.TemporaryFile() as sink:
+            os.dup2(sink.fileno(), 2)
+            try:
+                yield captured
+            finally:
+                sys.stderr.flush()
+                os.dup2(saved, 2)
+                sink.seek(0)
+                captured.append(sink.read(4096).decode("utf-8", "replace"))
+    finally:
+        os.close(saved)
+
+
+def _first_line(text: str) -> str:
+    """The first non-empty line of ``text`` without a log-level prefix, cut to 160 characters."""
+    for line in text.splitlines():
+        line = line.strip().removeprefix("Error:").removeprefix("Warning:").strip()
+        if line and not line.startswith("at line "):
+            return line if len(line) <= 160 else shown(line, 160)
+    return ""
+
+
+def _detail(log: list[str]) -> str:
+    """`` (first logged line)`` of a captured log, or ''."""
+    line = _first_line("".join(log))
+    return f" ({line})" if line else ""
+
+
+def _positive_finite(value) -> bool:
+    """Whether ``value`` is a real number (not a boolean), finite and > 0."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    try:
+        return math.isfinite(value) and value > 0
+    except OverflowError:  # an integer too large for a float
+        return False
+
+
+def _read_limit_file(path: Path, model: pin.Model) -> dict[str, dict[str, float]]:
+    """Acceleration and jerk limits of ``<robot>.limits.yaml``: one value [deg/s^2, deg/s^3] per joint
+    of ``model``, in file order; returned in SI by quantity and joint name. {} if there is no file."""
     if not path.is_file():
         return {}
     try:
-        data = yaml.safe_load(path.read_text()) or {}
-    except yaml.YAMLError as exc:
-        raise RobotError(f"cannot read limits file {path}: {exc}") from None
-    if not isinstance(data, dict) or set(data) - set(_LIMIT_FILE_KEYS):
-        raise RobotError(f"limits file {path} must map {' and '.join(_LIMIT_FILE_KEYS)} to lists")
+        with path.open("rb") as file:
+            raw = file.read(_LIMIT_FILE_BYTES + 1)
+    except OSError as exc:
+        raise RobotError(f"cannot read limits file {path}: {exc.strerror or exc}") from None
+    if len(raw) > _LIMIT_FILE_BYTES:
+        raise RobotError(f"limits file {path} is larger than {_LIMIT_FILE_BYTES} bytes")
+    try:
+        data = yaml.safe_load(raw)
+    except Exception as exc:  # YAMLError, or a value the constructor cannot convert, or nesting too deep
+        raise RobotError(f"limits file {path} is not valid YAML: {_first_line(str(exc))}") from None
+    data = {} if data is None else data
+    keys = " and ".join(_LIMIT_FILE_KEYS)
+    if not isinstance(data, dict):
+        raise RobotError(f"limits file {path} must map {keys} to lists, got {type(data).__name__}")
+    for key in data:
+        if key not in _LIMIT_FILE_KEYS:
+            raise RobotError(f"limits file {path}: unknown key {shown(key)}; expected {keys}")
+    joints = [model.names[j] for j in range(1, model.njoints)]
     limits = {}
-    for key, name in _LIMIT_FILE_KEYS.items():
-        if key in data:
-            values = np.asarray(data[key], dtype=float)
-            if values.shape != (model.nq,) or not np.all(np.isfinite(values) & (values > 0)):
-                raise RobotError(f"limits file {path}: {key} needs {model.nq} positive numbers, got {data[key]}")
-            limits[name] = np.deg2rad(values)
+    for key, quantity in _LIMIT_FILE_KEYS.items():
+        if key not in data:
+            continue
+        values = data[key]
+        if not isinstance(values, list) or len(values) != len(joints):
+            raise RobotError(f"limits file {path}: {key} must be a list of {len(joints)} positive numbers, one per "
+                             f"joint ({', '.join(joints)}), got {shown(values)}")
+        for joint, value in zip(joints, values):
+            if not _positive_finite(value):
+                raise RobotError(f"limits file {path}: {key} of joint {joint!r} must be a positive number, "
+                                 f"got {shown(value)}")
+        limits[quantity] = {joint: math.radians(value) for joint, value in zip(joints, values)}
     return limits
 
 

@@ -20,21 +20,31 @@ Schema (version 1)::
     optimizer: {algorithm: default, seed: 0, bounds_s: [h_min, h_max], objective: time,
                 weights: [K_t, K_j], ...algorithm settings (nests, iterations, pa, ...)}
 
+Every single number has the range given in ``RANGES`` (seeds are integers in [0, 2^63),
+``sample_rate_hz`` at most 100 kHz, every optimizer setting has its own range); a task
+file is UTF-8 (byte-order mark optional) or UTF-16/UTF-32 with a byte-order mark, at
+most ``MAX_TASK_BYTES`` long, nested at most ``MAX_NESTING`` deep, expanding to at most
+``MAX_VALUES`` values, with no key twice in a mapping.
+
 Every error is a ``TaskError`` naming the key path, e.g.
 ``limits.velocity_deg_s[2]: must be > 0, got -1``.
 """
 
 from __future__ import annotations
 
+import codecs
 import inspect
 import math
+import os
+import re
+import stat
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import yaml
 
-from .errors import TaskError
+from .errors import SHOWN_VALUE_CHARS, PlannerError, TaskError, shown
 from .ik import BRANCH_RULES
 from .splines import FAMILIES
 from .timing import OPTIMIZERS, cuckoo_search
@@ -44,11 +54,82 @@ SCHEMA_VERSION = 1
 #: Default shortest segment duration [s]: one period of a 1 kHz controller. Merged repeated
 #: via-points keep their zero-length segment.
 MIN_SEGMENT_S = 1e-3
+#: Largest task file read [bytes]: 40 times a 1000-waypoint task (~100 kB). The YAML parser
+#: reads about 1 MB/s of dense values, so this also bounds the time spent reading.
+MAX_TASK_BYTES = 4 * 2**20
+#: Deepest nesting of lists and mappings in a task file (the schema itself needs 4).
+MAX_NESTING = 64
+#: Most values (scalars, lists, mappings and keys) a task file may expand to, an alias counting
+#: as everything it stands for: a 1000-waypoint Cartesian task has about 26 000. This refuses
+#: alias bombs ("billion laughs") before they cost time or memory.
+MAX_VALUES = 200_000
+#: Largest seed of the random generators (numpy takes seeds in [0, 2^63) here).
+MAX_SEED = 2**63 - 1
 _TOP_KEYS = ("version", "name", "robot", "waypoints", "limits", "ik", "path", "trajectory", "optimizer")
 PATH_MODES = ("joint", "linear")
 _LIMIT_KEYS = {"velocity_deg_s": "velocity", "acceleration_deg_s2": "acceleration", "jerk_deg_s3": "jerk"}
 _LIMIT_KEY_OF = {**{name: key for key, name in _LIMIT_KEYS.items()}, "lower": "position_deg", "upper": "position_deg"}
 _COMMON_OPTIMIZER_KEYS = ("algorithm", "seed", "bounds_s", "objective", "weights")
+#: Byte-order marks a task file may start with: (mark, Python codec, name in messages); UTF-32
+#: first, as its little-endian mark starts with UTF-16's.
+_BYTE_ORDER_MARKS = ((codecs.BOM_UTF32_LE, "utf-32", "UTF-32"), (codecs.BOM_UTF32_BE, "utf-32", "UTF-32"),
+                     (codecs.BOM_UTF8, "utf-8-sig", "UTF-8"), (codecs.BOM_UTF16_LE, "utf-16", "UTF-16"),
+                     (codecs.BOM_UTF16_BE, "utf-16", "UTF-16"))
+_PLAIN_KEY = re.compile(r"[A-Za-z0-9_\-]{1,40}")
+_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f]")
+
+
+@dataclass(frozen=True)
+class Range:
+    """Allowed values of one number of a task: ``low`` to ``high`` (both included unless
+    ``low_open``), whole numbers only if ``integer``."""
+
+    low: float
+    high: float = math.inf
+    integer: bool = False
+    low_open: bool = False
+
+    def __contains__(self, value: float) -> bool:
+        return (value > self.low if self.low_open else value >= self.low) and value <= self.high
+
+    def __str__(self) -> str:
+        text = f"{'an integer ' if self.integer else ''}{'>' if self.low_open else '>='} {self.low:g}"
+        if self.high == math.inf:
+            return text
+        return f"{text} and <= {self.high if isinstance(self.high, int) else format(self.high, 'g')}"
+
+
+_COUNT = 10_000
+#: Allowed values of every single number of a task, by key path; ``bool`` marks a true/false
+#: setting. The ``optimizer.*`` settings are the keyword arguments of the algorithms
+#: (``_optimizer_parameters``), each with its range here. Upper caps keep memory and run time
+#: bounded and catch unit mistakes.
+RANGES: dict[str, Range | type] = {
+    "ik.seed": Range(0, MAX_SEED, integer=True),
+    "path.tolerance_m": Range(0, 1, low_open=True),                    # [m]
+    "path.tolerance_deg": Range(0, 180, low_open=True),                # [deg]
+    "trajectory.sample_rate_hz": Range(0, 100_000, low_open=True),     # [Hz]: at most 100 kHz
+    "trajectory.min_segment_s": Range(0, 10, low_open=True),           # [s]
+    "optimizer.seed": Range(0, MAX_SEED, integer=True),
+    "optimizer.bounds_s[0]": Range(0, 86_400, low_open=True),          # h_min [s]: at most a day
+    "optimizer.bounds_s[1]": Range(0, 86_400, low_open=True),          # h_max [s]
+    "optimizer.weights[0]": Range(0, low_open=True),                   # K_t [1/s]
+    "optimizer.weights[1]": Range(0),                                  # K_j [s^5/rad^2]
+    "optimizer.nests": Range(2, _COUNT, integer=True),                 # Cuckoo Search
+    "optimizer.iterations": Range(1, 100_000, integer=True),           # Cuckoo Search, PSO, SLSQP
+    "optimizer.pa": Range(0, 1),
+    "optimizer.alpha": Range(0, 10, low_open=True),
+    "optimizer.beta": Range(1, 2, low_open=True),
+    "optimizer.polish": bool,
+    "optimizer.refine_starts": Range(1, _COUNT, integer=True),         # also at most nests
+    "optimizer.particles": Range(2, _COUNT, integer=True),             # PSO
+    "optimizer.inertia": Range(0, 1),
+    "optimizer.cognitive": Range(0, 4),
+    "optimizer.social": Range(0, 4),
+    "optimizer.population": Range(1, 1_000, integer=True),             # differential evolution
+    "optimizer.evaluations": Range(1, 10_000_000, integer=True),
+    "optimizer.starts": Range(1, _COUNT, integer=True),                # SLSQP
+}
 
 
 @dataclass(frozen=True)
@@ -130,6 +211,150 @@ class Task:
     path: PathOptions = field(default_factory=PathOptions)
 
 
+# ---------------------------------------------------------------------------- reading YAML
+
+
+def _key_text(key) -> str:
+    """A mapping key as a key-path component: plain short names as they are, anything else shown."""
+    return key if isinstance(key, str) and _PLAIN_KEY.fullmatch(key) else shown(key, 40)
+
+
+def _key_path(path: str, key) -> str:
+    """Key path of ``key`` in the mapping at ``path``."""
+    return f"{path}.{_key_text(key)}" if path else _key_text(key)
+
+
+def _child_path(path: str, index) -> str:
+    """Key path of a YAML node under ``path``: ``index`` is its list position or its key's node."""
+    if isinstance(index, int):
+        return f"{path}[{index}]"
+    return _key_path(path, index.value if isinstance(index, yaml.ScalarNode) else "?")
+
+
+def _where(mark) -> str:
+    """A YAML mark as ``line L, column C`` (both from 1)."""
+    return f"line {mark.line + 1}, column {mark.column + 1}"
+
+
+class _TaskLoader(yaml.SafeLoader):
+    """``yaml.SafeLoader`` that refuses, with a ``TaskError`` naming the key path and line: a key
+    twice in one mapping, nesting deeper than ``MAX_NESTING``, recursive aliases and documents
+    expanding to more than ``MAX_VALUES`` values. A scalar its constructor cannot convert
+    (``2001-13-45``, an integer of 5000 digits) is a ``yaml.YAMLError``."""
+
+    def __init__(self, text: str):
+        super().__init__(text)
+        self._paths: list[str] = []         # key paths of the nodes being composed, outermost first
+        self._sizes: dict[int, int] = {}    # id(node) -> values it expands to, once composed
+        self._values = 0                    # values of the document so far, aliases expanded
+
+    def _count(self, values: int, path: str, mark) -> None:
+        self._values += values
+        if self._values > MAX_VALUES:
+            raise TaskError(path, f"the task expands to more than {MAX_VALUES} values by line {mark.line + 1} "
+                                  f"(aliases count as everything they stand for)")
+
+    def compose_node(self, parent, index):
+        outer = self._paths[-1] if self._paths else ""
+        path = outer if index is None else _child_path(outer, index)  # a key's path is its mapping's
+        mark = self.peek_event().start_mark
+        if self.check_event(yaml.AliasEvent):
+            anchor = self.peek_event().anchor
+            node = super().compose_node(parent, index)  # raises on an undefined alias
+            if id(node) not in self._sizes:
+                raise TaskError(path, f"alias *{shown(anchor, 40)} at line {mark.line + 1} refers to a list "
+                                      f"or mapping containing it (recursive)")
+            self._count(self._sizes[id(node)], path, mark)
+            return node
+        if len(self._paths) >= MAX_NESTING:
+            raise TaskError(path, f"nested deeper than {MAX_NESTING} levels at line {mark.line + 1}")
+        self._count(1, path, mark)
+        self._paths.append(path)
+        try:
+            node = super().compose_node(parent, index)
+        finally:
+            self._paths.pop()
+        children = node.value if isinstance(node, yaml.SequenceNode) else \
+            [child for pair in node.value for child in pair] if isinstance(node, yaml.MappingNode) else ()
+        self._sizes[id(node)] = 1 + sum(self._sizes[id(child)] for child in children)
+        return node
+
+    def compose_mapping_node(self, anchor):
+        node = super().compose_mapping_node(anchor)
+        first: dict[tuple[str, str], yaml.Node] = {}
+        for key, _ in node.value:
+            if isinstance(key, yaml.ScalarNode) and key.tag != "tag:yaml.org,2002:merge":
+                earlier = first.setdefault((key.tag, key.value), key)
+                if earlier is not key:
+                    raise TaskError(_child_path(self._paths[-1], key),
+                                    f"duplicate key at {_where(key.start_mark)} (first at "
+                                    f"{_where(earlier.start_mark)}); each key may appear once in a mapping")
+        return node
+
+    def construct_object(self, node, deep=False):
+        try:
+            return super().construct_object(node, deep)
+        except (yaml.YAMLError, PlannerError):
+            raise
+        except (ValueError, TypeError, AttributeError, OverflowError) as exc:
+            kind = node.tag.rsplit(":", 1)[-1]
+            raise yaml.constructor.ConstructorError(None, None, f"cannot read {shown(node.value, 40)} as {kind} "
+                                                                f"({shown(str(exc), 60)})", node.start_mark) from None
+
+
+def _read_bytes(path: Path) -> bytes:
+    """The bytes of a regular file of at most ``MAX_TASK_BYTES`` (a device, pipe or folder is refused
+    before anything is read; the read itself is bounded)."""
+    try:
+        descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
+    except (OSError, ValueError) as exc:  # ValueError: a NUL character in the path
+        raise TaskError(str(path), f"cannot read task file ({getattr(exc, 'strerror', None) or exc})") from None
+    if not stat.S_ISREG(os.fstat(descriptor).st_mode):
+        os.close(descriptor)
+        raise TaskError(str(path), "cannot read task file (not a regular file: a folder, device or pipe)")
+    with os.fdopen(descriptor, "rb") as file:
+        try:
+            raw = file.read(MAX_TASK_BYTES + 1)
+        except OSError as exc:
+            raise TaskError(str(path), f"cannot read task file ({exc.strerror or exc})") from None
+    if len(raw) > MAX_TASK_BYTES:
+        raise TaskError(str(path), f"task file larger than {MAX_TASK_BYTES} bytes ({MAX_TASK_BYTES >> 20} MiB)")
+    return raw
+
+
+def _decode(raw: bytes, path: Path) -> str:
+    """Text of a task file: UTF-8 (byte-order mark optional) or UTF-16/UTF-32 with a byte-order mark."""
+    codec, encoding = next(((codec, name) for mark, codec, name in _BYTE_ORDER_MARKS if raw.startswith(mark)),
+                           ("utf-8", "UTF-8"))
+    try:
+        return raw.decode(codec)
+    except UnicodeDecodeError as exc:
+        raise TaskError(str(path), f"not valid {encoding} at byte {exc.start} ({exc.reason}); task files are "
+                                   f"UTF-8, or UTF-16/UTF-32 with a byte-order mark") from None
+
+
+def _parse_yaml(text: str, path: Path):
+    """The plain data of one YAML document (see ``_TaskLoader`` for what is refused)."""
+    loader = None
+    try:
+        loader = _TaskLoader(text)  # checks every character first
+        return loader.get_single_data()
+    except yaml.reader.ReaderError as exc:  # a character YAML does not allow, found before parsing
+        line = text.count("\n", 0, exc.position) + 1
+        column = exc.position - text.rfind("\n", 0, exc.position)
+        hint = " (a NUL: is the file UTF-16 without a byte-order mark?)" if exc.character in ("\0", 0) else ""
+        code = exc.character if isinstance(exc.character, int) else ord(exc.character)
+        raise TaskError(str(path), f"control character U+{code:04X} at line {line}, column {column} is not "
+                                   f"allowed in YAML{hint}") from None
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        raise TaskError(str(path), f"not valid YAML{where}: {getattr(exc, 'problem', None) or exc}") from None
+    finally:
+        if loader is not None:
+            loader.dispose()
+
+
 # ---------------------------------------------------------------------------- primitives
 
 
@@ -138,34 +363,81 @@ def _mapping(value, path: str, allowed) -> dict:
         raise TaskError(path, f"must be a mapping, got {type(value).__name__}")
     for key in value:
         if key not in allowed:
-            raise TaskError(f"{path}.{key}" if path else str(key),
-                            f"unknown key; expected one of: {', '.join(allowed)}")
+            raise TaskError(_key_path(path, key), f"unknown key; expected one of: {', '.join(allowed)}")
     return value
 
 
 def _number(value, path: str, *, positive: bool = False, integer: bool = False) -> float:
+    """``value`` as a finite float (or int if ``integer``); booleans and strings are not numbers."""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise TaskError(path, f"must be a number, got {value!r}")
-    if not math.isfinite(value):
+        raise TaskError(path, f"must be a number, got {shown(value)}{_text_number_hint(value)}")
+    if isinstance(value, int) and not integer:
+        try:
+            value = float(value)
+        except OverflowError:
+            raise TaskError(path, f"must be a finite number, got {shown(value)}") from None
+    if isinstance(value, float) and not math.isfinite(value):
         raise TaskError(path, f"must be a finite number, got {value}")
     if integer and int(value) != value:
         raise TaskError(path, f"must be a whole number, got {value}")
     if positive and value <= 0:
-        raise TaskError(path, f"must be > 0, got {value}")
-    return int(value) if integer else float(value)
+        raise TaskError(path, f"must be > 0, got {shown(value)}")
+    return int(value) if integer else value
+
+
+def _text_number_hint(value) -> str:
+    """A hint for text that reads as a finite number (YAML 1.1 reads ``1e9`` as text), else ''."""
+    if not isinstance(value, str) or len(value) > 40:
+        return ""
+    try:
+        finite = math.isfinite(float(value))
+    except ValueError:
+        return ""
+    return " (text; write a number unquoted, exponents with a dot and a sign: 1.0e+9)" if finite else ""
+
+
+def _ranged(value, path: str):
+    """``value`` checked against ``RANGES[path]``: a number in its range, or true/false."""
+    rule = RANGES[path]
+    if rule is bool:
+        if not isinstance(value, bool):
+            raise TaskError(path, f"must be true or false, got {shown(value)}")
+        return value
+    number = _number(value, path, integer=rule.integer)
+    if number not in rule:
+        raise TaskError(path, f"must be {rule}, got {shown(value)}")
+    return number
 
 
 def _vector(value, path: str, length: int | None = None, *, positive: bool = False) -> np.ndarray:
+    """A non-empty list of finite numbers (of ``length`` values if given)."""
     if not isinstance(value, (list, tuple)):
-        raise TaskError(path, f"must be a list of numbers, got {value!r}")
+        raise TaskError(path, f"must be a list of numbers, got {shown(value)}")
     if length is not None and len(value) != length:
         raise TaskError(path, f"must have {length} values, got {len(value)}")
+    if not value:
+        raise TaskError(path, "must have at least 1 value, got an empty list")
     return np.array([_number(v, f"{path}[{i}]", positive=positive) for i, v in enumerate(value)])
 
 
 def _text(value, path: str) -> str:
+    """A non-empty string without control characters."""
     if not isinstance(value, str) or not value:
-        raise TaskError(path, f"must be a non-empty string, got {value!r}")
+        raise TaskError(path, f"must be a non-empty string, got {shown(value)}")
+    if _CONTROL.search(value):
+        raise TaskError(path, f"must not contain control characters, got {shown(value)}")
+    return value
+
+
+def _said(text: str) -> str:
+    """``text`` as it is when short, else cut by ``shown``."""
+    return text if len(text) <= SHOWN_VALUE_CHARS else shown(text)
+
+
+def _choice(value, path: str, known, what: str) -> str:
+    """One of the names ``known``."""
+    if not isinstance(value, str) or value not in known:
+        raise TaskError(path, f"unknown {what} {shown(value)}; known: {', '.join(known)}")
     return value
 
 
@@ -176,8 +448,6 @@ def _joint_waypoints(value, path: str) -> np.ndarray:
     if not isinstance(value, (list, tuple)) or len(value) < 2:
         raise TaskError(path, "must be a list of at least 2 joint vectors")
     first = _vector(value[0], f"{path}[0]")
-    if len(first) < 1:
-        raise TaskError(f"{path}[0]", "must have at least 1 joint value")
     rows = [first] + [_vector(v, f"{path}[{i}]", len(first)) for i, v in enumerate(value[1:], start=1)]
     return np.deg2rad(np.array(rows))
 
@@ -228,8 +498,9 @@ def _limits(value, path: str) -> dict[str, np.ndarray]:
               for key, name in _LIMIT_KEYS.items() if key in section}
     if "position_deg" in section:
         ranges = section["position_deg"]
-        if not isinstance(ranges, (list, tuple)):
-            raise TaskError(f"{path}.position_deg", "must be a list of [lower, upper] pairs")
+        if not isinstance(ranges, (list, tuple)) or not ranges:
+            raise TaskError(f"{path}.position_deg", f"must be a non-empty list of [lower, upper] pairs, "
+                                                    f"got {shown(ranges)}")
         pairs = np.array([_vector(r, f"{path}.position_deg[{i}]", 2) for i, r in enumerate(ranges)])
         for i, (low, high) in enumerate(pairs):
             if low >= high:
@@ -248,53 +519,47 @@ def _robot(value, path: str, base: Path | None) -> RobotSpec:
     urdf = Path(_text(section["urdf"], f"{path}.urdf"))
     candidates = [urdf] if urdf.is_absolute() else [p for p in ((base / urdf) if base else None, urdf) if p]
     for candidate in candidates:
-        if candidate.is_file():
-            return RobotSpec(candidate.resolve(), None, tool)
-    raise TaskError(f"{path}.urdf", f"file not found: {urdf}")
+        try:
+            if candidate.is_file():
+                return RobotSpec(candidate.resolve(), None, tool)
+        except OSError as exc:  # a name too long, say
+            raise TaskError(f"{path}.urdf", f"cannot read {_said(str(urdf))} ({exc.strerror or exc})") from None
+    raise TaskError(f"{path}.urdf", f"file not found: {_said(str(urdf))}")
 
 
 def _ik(value, path: str) -> IKOptions:
     section = _mapping(value, path, ("branch", "start_deg", "seed"))
-    branch = section.get("branch", "optimal")
-    if branch not in BRANCH_RULES:
-        raise TaskError(f"{path}.branch", f"unknown branch rule {branch!r}; known: {', '.join(BRANCH_RULES)}")
+    branch = _choice(section.get("branch", "optimal"), f"{path}.branch", BRANCH_RULES, "branch rule")
     start = np.deg2rad(_vector(section["start_deg"], f"{path}.start_deg")) if "start_deg" in section else None
-    seed = _number(section["seed"], f"{path}.seed", integer=True) if "seed" in section else 0
+    seed = _ranged(section["seed"], f"{path}.seed") if "seed" in section else 0
     return IKOptions(branch, start, seed)
 
 
 def _path(value, path: str) -> PathOptions:
     section = _mapping(value, path, ("mode", "tolerance_m", "tolerance_deg"))
-    mode = section.get("mode", "joint")
-    if mode not in PATH_MODES:
-        raise TaskError(f"{path}.mode", f"unknown path mode {mode!r}; known: {', '.join(PATH_MODES)}")
+    mode = _choice(section.get("mode", "joint"), f"{path}.mode", PATH_MODES, "path mode")
     default = PathOptions()
-    tolerance_m = _number(section["tolerance_m"], f"{path}.tolerance_m", positive=True) \
+    tolerance_m = _ranged(section["tolerance_m"], f"{path}.tolerance_m") \
         if "tolerance_m" in section else default.tolerance_m
-    tolerance_rad = np.deg2rad(_number(section["tolerance_deg"], f"{path}.tolerance_deg", positive=True)) \
+    tolerance_rad = np.deg2rad(_ranged(section["tolerance_deg"], f"{path}.tolerance_deg")) \
         if "tolerance_deg" in section else default.tolerance_rad
     return PathOptions(mode, tolerance_m, float(tolerance_rad))
 
 
-def _optimizer_parameters(algorithm: str) -> dict[str, str]:
-    """Keyword settings of ``algorithm`` and their kinds (bool, int, float), read from its signature."""
+def _optimizer_parameters(algorithm: str) -> tuple[str, ...]:
+    """Names of the keyword settings of ``algorithm``, read from its signature (ranges in ``RANGES``)."""
     function = cuckoo_search if algorithm in ("default", "cuckoo-paper") else OPTIMIZERS[algorithm]
-    kinds = {}
-    for p in inspect.signature(function).parameters.values():
-        if p.kind == p.KEYWORD_ONLY and p.name not in ("seed", "progress", "variant"):
-            kinds[p.name] = str(p.annotation).split("|")[0].strip()
-    return kinds
+    return tuple(p.name for p in inspect.signature(function).parameters.values()
+                 if p.kind == p.KEYWORD_ONLY and p.name not in ("seed", "progress", "variant"))
 
 
 def _optimizer(value, path: str) -> dict:
     value = {} if value is None else value
     if not isinstance(value, dict):
         raise TaskError(path, f"must be a mapping, got {type(value).__name__}")
-    algorithm = value.get("algorithm", "default")
-    if algorithm not in OPTIMIZERS:
-        raise TaskError(f"{path}.algorithm", f"unknown algorithm {algorithm!r}; known: {', '.join(OPTIMIZERS)}")
+    algorithm = _choice(value.get("algorithm", "default"), f"{path}.algorithm", OPTIMIZERS, "algorithm")
     parameters = _optimizer_parameters(algorithm)
-    section = _mapping(value, path, _COMMON_OPTIMIZER_KEYS + tuple(parameters))
+    section = _mapping(value, path, _COMMON_OPTIMIZER_KEYS + parameters)
     result = {"algorithm": algorithm, "seed": 0, "bounds": None, "objective": "time", "weights": (1.0, 1.0),
               "settings": {}}
     for key, item in section.items():
@@ -302,35 +567,30 @@ def _optimizer(value, path: str) -> dict:
         if key == "algorithm":
             continue
         if key == "seed":
-            result["seed"] = _number(item, where, integer=True)
-        elif key == "bounds_s":
-            bounds = _vector(item, where, 2, positive=True)
-            if bounds[0] > bounds[1]:
-                raise TaskError(where, f"lower bound {bounds[0]} exceeds upper bound {bounds[1]}")
-            result["bounds"] = (float(bounds[0]), float(bounds[1]))
+            result["seed"] = _ranged(item, where)
+        elif key in ("bounds_s", "weights"):
+            if not isinstance(item, (list, tuple)) or len(item) != 2:
+                raise TaskError(where, f"must be a list of 2 numbers, got {shown(item)}")
+            pair = tuple(float(_ranged(number, f"{where}[{i}]")) for i, number in enumerate(item))
+            if key == "bounds_s" and pair[0] > pair[1]:
+                raise TaskError(where, f"lower bound {pair[0]} exceeds upper bound {pair[1]}")
+            result["bounds" if key == "bounds_s" else "weights"] = pair
         elif key == "objective":
-            if item not in OBJECTIVES:
-                raise TaskError(where, f"unknown objective {item!r}; known: {', '.join(OBJECTIVES)}")
-            result["objective"] = item
-        elif key == "weights":
-            result["weights"] = tuple(_vector(item, where, 2))
-        elif parameters[key] == "bool":
-            if not isinstance(item, bool):
-                raise TaskError(where, f"must be true or false, got {item!r}")
-            result["settings"][key] = item
+            result["objective"] = _choice(item, where, OBJECTIVES, "objective")
         else:
-            result["settings"][key] = _number(item, where, integer=parameters[key] == "int")
+            result["settings"][key] = _ranged(item, where)
+    settings = result["settings"]
+    if "refine_starts" in settings and "nests" in settings and settings["refine_starts"] > settings["nests"]:
+        raise TaskError(f"{path}.refine_starts", f"must be at most nests ({settings['nests']}), "
+                                                 f"got {settings['refine_starts']}")
     return result
 
 
 def _trajectory(value, path: str) -> tuple[str, float, float]:
     section = _mapping({} if value is None else value, path, ("family", "sample_rate_hz", "min_segment_s"))
-    family = section.get("family", "hybrid")
-    if family not in FAMILIES:
-        raise TaskError(f"{path}.family", f"unknown family {family!r}; known: {', '.join(FAMILIES)}")
-    rate = _number(section["sample_rate_hz"], f"{path}.sample_rate_hz", positive=True) \
-        if "sample_rate_hz" in section else 100.0
-    minimum = _number(section["min_segment_s"], f"{path}.min_segment_s", positive=True) \
+    family = _choice(section.get("family", "hybrid"), f"{path}.family", FAMILIES, "family")
+    rate = _ranged(section["sample_rate_hz"], f"{path}.sample_rate_hz") if "sample_rate_hz" in section else 100.0
+    minimum = _ranged(section["min_segment_s"], f"{path}.min_segment_s") \
         if "min_segment_s" in section else MIN_SEGMENT_S
     return family, rate, minimum
 
@@ -350,8 +610,9 @@ def parse_task(data, *, name: str = "task", source: Path | None = None) -> Task:
     document = _mapping(data, "", _TOP_KEYS)
     if "version" not in document:
         raise TaskError("version", f"is required (use version: {SCHEMA_VERSION})")
-    if document["version"] != SCHEMA_VERSION:
-        raise TaskError("version", f"unsupported version {document['version']!r}; this planner reads {SCHEMA_VERSION}")
+    version = document["version"]
+    if type(version) is not int or version != SCHEMA_VERSION:  # true is no version, nor is 1.0
+        raise TaskError("version", f"unsupported version {shown(version)}; this planner reads {SCHEMA_VERSION}")
     if "waypoints" not in document:
         raise TaskError("waypoints", "is required")
     base = source.parent if source else None
@@ -377,16 +638,7 @@ def parse_task(data, *, name: str = "task", source: Path | None = None) -> Task:
 
 
 def load_task(path) -> Task:
-    """Read and validate a YAML task file."""
+    """Read and validate a YAML task file (see the module docstring for what a file may be)."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise TaskError(str(path), f"cannot read task file ({exc.strerror or exc})") from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        raise TaskError(str(path), f"not valid YAML{where}: {getattr(exc, 'problem', exc)}") from None
+    data = _parse_yaml(_decode(_read_bytes(path), path), path)
     return parse_task(data, name=path.stem, source=path)

@@ -1,3 +1,5 @@
+import os
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -90,9 +92,142 @@ def test_unknown_robot_frame_and_file():
         load_robot()
 
 
-def test_bad_limits_file(tmp_path):
+def arm_with_limits(tmp_path, limits_text: str | bytes) -> Path:
     urdf = tmp_path / "arm.urdf"
     urdf.write_text(PUMA.read_text())
-    (tmp_path / "arm.limits.yaml").write_text("acceleration_deg_s2: [1, 2]\n")
-    with pytest.raises(RobotError, match="acceleration_deg_s2 needs 6 positive numbers"):
+    limits = tmp_path / "arm.limits.yaml"
+    (limits.write_bytes if isinstance(limits_text, bytes) else limits.write_text)(limits_text)
+    return urdf
+
+
+@pytest.mark.parametrize("text, message", [
+    ("acceleration_deg_s2: [1, 2]\n", r"acceleration_deg_s2 must be a list of 6 positive numbers, one per joint "
+                                      r"\(joint1, .*\), got \[1, 2\]$"),
+    ("acceleration_deg_s2: [a, b]\n", r"acceleration_deg_s2 must be a list of 6 .*got \['a', 'b'\]$"),
+    ("acceleration_deg_s2: {a: 1}\n", r"acceleration_deg_s2 must be a list of 6 .*got \{'a': 1\}$"),
+    ("jerk_deg_s3: 5\n", r"jerk_deg_s3 must be a list of 6"),
+    ("jerk_deg_s3: [1, 2, x, 4, 5, 6]\n", r"jerk_deg_s3 of joint 'joint3' must be a positive number, got 'x'$"),
+    ("jerk_deg_s3: [1, 2, 3, 4, 5, true]\n", r"jerk_deg_s3 of joint 'joint6' must be a positive number, got True$"),
+    ("jerk_deg_s3: [1, 2, 3, 4, [5], 6]\n", r"of joint 'joint5' must be a positive number, got \[5\]$"),
+    ("jerk_deg_s3: [1, 2, 3, 4, .nan, 6]\n", r"of joint 'joint5' must be a positive number, got nan$"),
+    (f"jerk_deg_s3: [1, 2, 3, 4, {'9' * 400}, 6]\n", r"of joint 'joint5' must be a positive number, got 9+… \(400"),
+    ("jerk_deg_s3: [1, 2, 3, 4, 0, 6]\n", r"of joint 'joint5' must be a positive number, got 0$"),
+    ("speed: [1]\n", r"unknown key 'speed'; expected acceleration_deg_s2 and jerk_deg_s3"),
+    ("- 1\n", r"must map acceleration_deg_s2 and jerk_deg_s3 to lists, got list"),
+    ("jerk_deg_s3: [1, 2\n", r"is not valid YAML"),
+    ("jerk_deg_s3: 2001-13-45\n", r"is not valid YAML: month must be in 1..12"),
+    ("a: " + "[" * 5000 + "]" * 5000, r"is not valid YAML"),
+    (b"jerk_deg_s3: [\xff]\n", r"is not valid YAML"),
+])
+def test_bad_limits_file_names_file_key_joint_and_value(tmp_path, text, message):
+    urdf = arm_with_limits(tmp_path, text)
+    with pytest.raises(RobotError, match=message) as caught:
         Robot.from_urdf(urdf, "tool")
+    assert str(caught.value).startswith(f"limits file {tmp_path / 'arm.limits.yaml'}") and len(str(caught.value)) < 400
+
+
+def test_limits_file_gives_one_value_per_urdf_joint_and_keeps_those_of_the_chain(tmp_path):
+    urdf = arm_with_limits(tmp_path, "jerk_deg_s3: [1, 2, 3, 4, 5, 6]\n")
+    robot = Robot.from_urdf(urdf, "link3")  # joints 1 to 3 move it
+    assert robot.joint_names == ["joint1", "joint2", "joint3"]
+    np.testing.assert_allclose(robot.limits.jerk, np.deg2rad([1, 2, 3]))
+
+
+MALFORMED_URDFS = {
+    "not xml": "not xml at all <<",
+    "joint without limits": '<robot name="x"><link name="a"/><link name="b"/><joint name="j" type="revolute">'
+                            '<parent link="a"/><child link="b"/></joint></robot>',
+    "no links": '<robot name="x"></robot>',
+    "two roots": '<robot name="x"><link name="a"/><link name="b"/></robot>',
+    "empty": "",
+}
+
+
+@pytest.mark.parametrize("name", MALFORMED_URDFS)
+def test_malformed_urdf_is_one_line_and_stderr_stays_clean(tmp_path, capfd, name):
+    urdf = tmp_path / "bad.urdf"
+    urdf.write_text(MALFORMED_URDFS[name])
+    with pytest.raises(RobotError, match=rf"^cannot load URDF {urdf}: ") as caught:
+        Robot.from_urdf(urdf)
+    captured = capfd.readouterr()
+    assert captured.err == "" and captured.out == ""
+    assert "\n" not in str(caught.value) and len(str(caught.value)) < 400
+    print("still writes", file=sys.stderr)
+    os.write(2, b"fd 2 restored\n")
+    assert capfd.readouterr().err == "still writes\nfd 2 restored\n"
+
+
+def test_urdf_parser_line_is_in_the_message(tmp_path):
+    urdf = tmp_path / "bad.urdf"
+    urdf.write_text(MALFORMED_URDFS["joint without limits"])
+    with pytest.raises(RobotError, match=r"\(Joint \[j\] is of type REVOLUTE but it does not specify limits\)$"):
+        Robot.from_urdf(urdf)
+
+
+@pytest.mark.parametrize("path", ["/dev/zero", "/tmp", "missing.urdf"])
+def test_urdf_must_be_a_regular_file(path):
+    with pytest.raises(RobotError, match="not an existing regular file"):
+        Robot.from_urdf(path)
+
+
+PRISMATIC_ARM = """<robot name="slider">
+  <link name="base"/><link name="carriage"/><link name="arm"/><link name="finger"/>
+  <joint name="lift" type="prismatic"><parent link="base"/><child link="carriage"/><axis xyz="0 0 1"/>
+    <limit lower="0" upper="1" velocity="1" effort="1"/></joint>
+  <joint name="shoulder" type="revolute"><parent link="carriage"/><child link="arm"/><axis xyz="0 0 1"/>
+    <limit lower="-3" upper="3" velocity="1" effort="1"/></joint>
+  <joint name="grip" type="prismatic"><parent link="carriage"/><child link="finger"/><axis xyz="1 0 0"/>
+    <limit lower="0" upper="0.1" velocity="1" effort="1"/></joint>
+</robot>"""
+
+
+def test_prismatic_joints_in_the_planned_chain_are_refused(tmp_path):
+    urdf = tmp_path / "slider.urdf"
+    urdf.write_text(PRISMATIC_ARM)
+    with pytest.raises(RobotError, match=r"joint 'lift' of robot 'slider' is prismatic \(JointModelPZ\); only "
+                                         r"revolute joints are supported"):
+        Robot.from_urdf(urdf, "arm")
+    with pytest.raises(RobotError, match=r"joint 'torso_lift_joint' of robot 'tiago_no_hand' is prismatic"):
+        Robot.from_example_robot_data("tiago_no_hand", "arm_tool_link")
+
+
+def test_continuous_joints_are_refused():
+    with pytest.raises(RobotError, match=r"joint '.*' of robot 'double_pendulum_continuous' is a JointModelRUBX; "
+                                         r"only revolute joints"):
+        Robot.from_example_robot_data("double_pendulum_continuous")
+
+
+def test_locked_prismatic_fingers_do_not_matter():
+    robot = Robot.from_example_robot_data("panda", "panda_hand_tcp")
+    assert robot.dof == 7 and robot.revolute.all()
+
+
+@pytest.mark.parametrize("frame", [["tool"], {}, 3, None])
+def test_tool_frame_must_be_a_string(frame):
+    if frame is None:
+        assert Robot.from_urdf(PUMA).tool_frame == "tool"
+        return
+    with pytest.raises(RobotError, match=r"robot 'puma560' has no frame"):
+        Robot.from_urdf(PUMA, frame)
+
+
+@pytest.mark.parametrize("name", [["ur5"], {}, 5, None])
+def test_robot_name_must_be_a_string(name):
+    with pytest.raises(RobotError, match=r"unknown robot"):
+        Robot.from_example_robot_data(name)
+
+
+def test_example_robot_this_pinocchio_cannot_load_is_a_robot_error(monkeypatch, capfd):
+    from example_robot_data import robots_loader
+
+    class Broken:
+        def __init__(self):
+            os.write(2, b"loader noise\n")
+            raise ImportError("Building SDF models require pinocchio >= 3.0.0")
+
+    monkeypatch.setitem(robots_loader.ROBOTS, "broken", Broken)
+    with pytest.raises(RobotError, match=r"^robot 'broken' of example-robot-data cannot be loaded with Pinocchio "
+                                         r"[\d.]+: ImportError: Building SDF models require pinocchio >= 3.0.0 "
+                                         r"\(loader noise\)$"):
+        Robot.from_example_robot_data("broken")
+    assert capfd.readouterr().err == ""

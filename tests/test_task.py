@@ -1,3 +1,8 @@
+import codecs
+import math
+import os
+import re
+import time
 from pathlib import Path
 
 import numpy as np
@@ -5,7 +10,9 @@ import pytest
 import yaml
 
 from planner import TaskError, paper
-from planner.task import load_task, parse_task
+from planner.task import (MAX_NESTING, MAX_TASK_BYTES, MAX_VALUES, RANGES, _optimizer_parameters, load_task,
+                          parse_task)
+from planner.timing import OPTIMIZERS
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_JOINT = ROOT / "scripts" / "tasks" / "puma560_paper_joint.yaml"
@@ -59,7 +66,7 @@ def test_optional_sections_take_defaults():
     ({"optimizer__particles": 5}, r"^optimizer.particles: unknown key"),
     ({"optimizer__nests": 2.5}, r"^optimizer.nests: must be a whole number"),
     ({"optimizer__bounds_s": [5, 3]}, r"^optimizer.bounds_s: lower bound 5.0 exceeds upper bound 3.0"),
-    ({"optimizer__bounds_s": [0, 3]}, r"^optimizer.bounds_s\[0\]: must be > 0"),
+    ({"optimizer__bounds_s": [0, 3]}, r"^optimizer.bounds_s\[0\]: must be > 0 and <= 86400, got 0$"),
     ({"optimizer__objective": "energy"}, r"^optimizer.objective: unknown objective 'energy'"),
     ({"optimizer__polish": 1}, r"^optimizer.polish: must be true or false"),
 ])
@@ -78,3 +85,272 @@ def test_missing_and_malformed_files(tmp_path):
     bad.write_text("- 1\n- 2\n")
     with pytest.raises(TaskError, match="must be a mapping, got list"):
         load_task(bad)
+
+
+# ---------------------------------------------------------------------------- hostile input
+
+TASKS = ROOT / "scripts" / "tasks"
+PAPER_CARTESIAN = TASKS / "puma560_paper_cartesian.yaml"
+
+
+def cartesian_task(**sections) -> dict:
+    return {**yaml.safe_load(PAPER_CARTESIAN.read_text()), **sections}
+
+
+def write(tmp_path, content, name="task.yaml") -> Path:
+    path = tmp_path / name
+    (path.write_bytes if isinstance(content, bytes) else path.write_text)(content)
+    return path
+
+
+def assert_refused(call, message: str, path: str | None = None) -> TaskError:
+    with pytest.raises(TaskError, match=message or None) as caught:
+        call()
+    if path is not None:
+        assert caught.value.path == path
+    assert "\n" not in str(caught.value) and len(str(caught.value)) <= 600
+    return caught.value
+
+
+# Class 1: every mapping refuses a key given twice, wherever it is and however it is spelt.
+@pytest.mark.parametrize("text, path", [
+    ("version: 1\nversion: 1\n", "version"),
+    ("limits: {jerk_deg_s3: [1]}\nlimits: {jerk_deg_s3: [2]}\n", "limits"),
+    ("limits:\n  jerk_deg_s3: [1]\n  'jerk_deg_s3': [2]\n", "limits.jerk_deg_s3"),
+    ("optimizer: {seed: 0, seed: 1}\n", "optimizer.seed"),
+    ("waypoints:\n  cartesian:\n    - {xyz_m: [0, 0, 0], xyz_m: [1, 1, 1]}\n", "waypoints.cartesian[0].xyz_m"),
+    ('"a b": 1\n"a b": 2\n', "'a b'"),
+])
+def test_duplicate_keys_are_refused_with_key_path_and_line(tmp_path, text, path):
+    task = write(tmp_path, PAPER_JOINT.read_text().replace("version: 1\n", "") + "\n" + text)
+    error = assert_refused(lambda: load_task(task), r"duplicate key at line \d+, column \d+ \(first at line \d+", path)
+    assert int(str(error).split("duplicate key at line ")[1].split(",")[0]) > 20  # the second one is named
+
+
+def test_merge_keys_may_be_overridden(tmp_path):
+    text = PAPER_JOINT.read_text().replace("trajectory: {family: hybrid}", "trajectory: {<<: {family: cubic}, family: hybrid}")
+    assert load_task(write(tmp_path, text)).family == "hybrid"
+
+
+# Class 2: a boolean is never a number, a number never a boolean, 1.0 no version.
+NUMBER_KEYS = [key for key, rule in RANGES.items() if rule is not bool]
+
+
+@pytest.mark.parametrize("value", [True, False])
+@pytest.mark.parametrize("key", NUMBER_KEYS)
+def test_booleans_are_not_numbers_anywhere(key, value):
+    data = task_with(key, value)
+    assert_refused(lambda: parse_task(data, source=PAPER_CARTESIAN), rf"must be a number, got {value}$",
+                   key)
+
+
+@pytest.mark.parametrize("changes, path", [
+    ({"version": True}, "version"), ({"version": 1.0}, "version"), ({"version": "1"}, "version"),
+    ({"waypoints__joints_deg": [[True, 2], [1, 2]]}, "waypoints.joints_deg[0][0]"),
+    ({"limits__jerk_deg_s3": [1, 1, 1, 1, 1, False]}, "limits.jerk_deg_s3[5]"),
+    ({"optimizer__polish": 1}, "optimizer.polish"), ({"optimizer__polish": "yes"}, "optimizer.polish"),
+])
+def test_booleans_and_numbers_do_not_pass_for_each_other(changes, path):
+    assert_refused(lambda: parse_task(joint_task(**changes)), "", path)
+
+
+# Class 3: sizes, devices, nesting and aliases are bounded.
+def test_only_regular_files_of_bounded_size_are_read(tmp_path):
+    for device in ("/dev/zero", "/dev/urandom"):
+        if Path(device).exists():
+            assert_refused(lambda: load_task(device), r"not a regular file", device)
+    assert_refused(lambda: load_task(tmp_path), r"not a regular file")
+    fifo = tmp_path / "pipe.yaml"
+    os.mkfifo(fifo)
+    assert_refused(lambda: load_task(fifo), r"not a regular file")  # without waiting for a writer
+    big = write(tmp_path, b"#" * (MAX_TASK_BYTES + 1))
+    assert_refused(lambda: load_task(big), rf"larger than {MAX_TASK_BYTES} bytes")
+    assert_refused(lambda: load_task(tmp_path / "a\0b.yaml"), "cannot read task file")
+
+
+@pytest.mark.parametrize("text", [
+    "version: " + "[" * 20_000 + "]" * 20_000,
+    "version: " + "{a: " * 20_000 + "1" + "}" * 20_000,
+    "".join(f"{'  ' * depth}a:\n" for depth in range(2_000)),
+    "- " * 2_000 + "1",
+])
+def test_deep_nesting_is_refused_quickly(tmp_path, text):
+    start = time.perf_counter()
+    assert_refused(lambda: load_task(write(tmp_path, text)), rf"nested deeper than {MAX_NESTING} levels at line")
+    assert time.perf_counter() - start < 2
+
+
+def billion_laughs(levels: int, width: int = 10) -> str:
+    lines = ["l0: &l0 [lol]"]
+    lines += [f"l{i}: &l{i} [{', '.join([f'*l{i - 1}'] * width)}]" for i in range(1, levels)]
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.parametrize("text", [billion_laughs(9), billion_laughs(30, 2), billion_laughs(4, 1000)])
+def test_alias_bombs_are_refused_quickly(tmp_path, text):
+    start = time.perf_counter()
+    error = assert_refused(lambda: load_task(write(tmp_path, text)), rf"expands to more than {MAX_VALUES} values")
+    assert time.perf_counter() - start < 2 and len(str(error)) < 200
+
+
+@pytest.mark.parametrize("text", ["a: &a [1, *a]\n", "a: &a {b: *a}\n", "a: &a [[[*a]]]\n"])
+def test_recursive_aliases_are_refused(tmp_path, text):
+    assert_refused(lambda: load_task(write(tmp_path, text)), r"refers to a list or mapping containing it")
+
+
+def test_aliases_within_bounds_are_fine(tmp_path):
+    text = PAPER_CARTESIAN.read_text().replace("hint_deg: [10, 15, 45, 5, 10, 6]", "hint_deg: &hint [10, 15, 45, 5, 10, 6]")
+    text = text.replace("hint_deg: [-50, 10, 50, -30, 10, 20]", "hint_deg: *hint")
+    text = text.replace("../../robots/puma560.urdf", str(ROOT / "robots" / "puma560.urdf"))
+    task = load_task(write(tmp_path, text))
+    np.testing.assert_allclose(task.cartesian_waypoints[-1].hint, task.cartesian_waypoints[0].hint)
+
+
+# Class 4: UTF-8 (with or without a byte-order mark) and UTF-16/32 with one; nothing else.
+@pytest.mark.parametrize("encoding, mark", [
+    ("utf-8", b""), ("utf-8", codecs.BOM_UTF8), ("utf-16-le", codecs.BOM_UTF16_LE),
+    ("utf-16-be", codecs.BOM_UTF16_BE), ("utf-32-le", codecs.BOM_UTF32_LE), ("utf-32-be", codecs.BOM_UTF32_BE),
+])
+def test_unicode_encodings_with_a_byte_order_mark_are_read(tmp_path, encoding, mark):
+    text = PAPER_JOINT.read_text().replace("name: puma560_paper_joint", "name: Pumä 560 — ∂t")
+    assert load_task(write(tmp_path, mark + text.encode(encoding))).name == "Pumä 560 — ∂t"
+
+
+@pytest.mark.parametrize("raw, message", [
+    ("name: Pumä\n".encode("latin-1"), r"not valid UTF-8 at byte 9 "),
+    (b"version: 1\n\xff\xfe\xfd", r"not valid UTF-8 at byte 11 "),
+    (codecs.BOM_UTF16_LE + "version: 1".encode("utf-16-le") + b"\x00\xd8", r"not valid UTF-16 at byte 22 "),
+    (codecs.BOM_UTF16_LE + b"v\x00\x00", r"not valid UTF-16 at byte 4 "),
+    (codecs.BOM_UTF32_BE + b"\x00\x11\x00\x00", r"not valid UTF-32 at byte 4 "),
+    ("version: 1\n".encode("utf-16-le"), r"control character U\+0000 at line 1, column 2 .*UTF-16 without a byte"),
+    (b"version: 1\nname: a\x00b\n", r"control character U\+0000 at line 2, column 8"),
+    (b"version: 1\nname: a\x1bb\n", r"control character U\+001B at line 2, column 8"),
+    (b"version: 1\n\x7f", r"control character U\+007F at line 2, column 1"),
+])
+def test_undecodable_files_and_control_characters_are_refused(tmp_path, raw, message):
+    task = write(tmp_path, raw)
+    assert_refused(lambda: load_task(task), message, str(task))
+
+
+def test_escaped_control_characters_in_strings_are_refused():
+    assert_refused(lambda: parse_task(joint_task(name="a\0b")), r"must not contain control characters", "name")
+
+
+@pytest.mark.parametrize("text", [
+    "version: 2001-13-45\n", "version: !!timestamp soon\n", f"version: {'1' * 5000}\n", "version: !!int 0b\n",
+    "version: !!float x\n", "version: !!binary 'a'\n", "version: !!python/object:os.system x\n",
+    "? [a]\n: 1\n", "version: 1\n---\nversion: 1\n", "version: *nowhere\n",
+])
+def test_scalars_yaml_cannot_convert_are_task_errors(tmp_path, text):
+    task = write(tmp_path, text)
+    error = assert_refused(lambda: load_task(task), r"not valid YAML at line \d+, column \d+: ", str(task))
+    assert len(str(error)) < 300
+
+
+# Class 5: a list or mapping where a name is expected.
+@pytest.mark.parametrize("where, value", [
+    ("name", ["a"]), ("robot.name", ["ur5"]), ("robot.tool_frame", {}), ("robot.urdf", ["x.urdf"]),
+    ("trajectory.family", ["hybrid"]), ("optimizer.algorithm", ["x"]), ("ik.branch", {}),
+    ("optimizer.objective", []), ("path.mode", ["linear"]), ("trajectory.family", 3), ("ik.branch", None),
+])
+def test_lists_and_mappings_are_not_names(where, value):
+    data = task_with(where, value)
+    if where == "robot.name":
+        data["robot"] = {"name": value}
+    assert_refused(lambda: parse_task(data, source=PAPER_CARTESIAN), "", where)
+
+
+# Class 6: numbers too large for a float, negative seeds, empty lists, wrong types.
+@pytest.mark.parametrize("where, value, message", ids=str, argvalues=[
+    ("waypoints.joints_deg[0][0]", 10**400, r"must be a finite number, got 10{78}… \(401 characters\)$"),
+    ("limits.velocity_deg_s[0]", -10**400, r"must be a finite number"),
+    ("trajectory.sample_rate_hz", 10**400, r"must be a finite number"),
+    ("optimizer.seed", 10**400, r"must be an integer >= 0 and <= 9223372036854775807, got 10{78}…"),
+    ("optimizer.seed", -1, r"must be an integer >= 0 .*, got -1$"),
+    ("optimizer.seed", 2**63, r"got 9223372036854775808$"),
+    ("optimizer.seed", 1.5, r"must be a whole number, got 1.5$"),
+    ("optimizer.seed", float("nan"), r"must be a finite number, got nan$"),
+    ("ik.seed", -5, r"must be an integer >= 0"),
+    ("ik.seed", "0", r"must be a number, got '0' \(text"),
+    ("trajectory.sample_rate_hz", "1e9", r"must be a number, got '1e9' \(text; .*1.0e\+9\)$"),
+    ("trajectory.sample_rate_hz", 1e6, r"must be > 0 and <= 100000, got 1000000.0$"),
+    ("trajectory.min_segment_s", 0, r"must be > 0 and <= 10, got 0$"),
+    ("optimizer.weights[0]", 0, r"must be > 0, got 0$"),
+    ("optimizer.weights[1]", -1e-9, r"must be >= 0, got -1e-09$"),
+    ("optimizer.bounds_s[1]", 1e9, r"must be > 0 and <= 86400, got 1000000000.0$"),
+])
+def test_numbers_out_of_range_are_refused(where, value, message):
+    assert_refused(lambda: parse_task(task_with(where, value), source=PAPER_CARTESIAN), message, where)
+
+
+@pytest.mark.parametrize("where, value", [
+    ("limits.position_deg", []), ("limits.velocity_deg_s", []), ("waypoints.joints_deg", [[], []]),
+    ("waypoints.joints_deg[0]", []), ("waypoints.cartesian[0].xyz_m", []), ("waypoints.cartesian[0].hint_deg", []),
+    ("ik.start_deg", []), ("limits.jerk_deg_s3", 5), ("limits.jerk_deg_s3", {"a": 1}), ("limits.position_deg", "x"),
+    ("limits.position_deg", [[1, 2, 3]]), ("waypoints.joints_deg", "abc"), ("optimizer.bounds_s", 3),
+    ("optimizer.weights", [1]), ("waypoints.cartesian[0]", [1, 2, 3]), ("waypoints.cartesian[0].quat_xyzw", [0, 0, 0, 0]),
+])
+def test_empty_and_misshapen_lists_are_refused(where, value):
+    with pytest.raises(TaskError) as caught:
+        parse_task(task_with(where, value), source=PAPER_CARTESIAN)
+    assert caught.value.path.startswith(where.split("[")[0].rsplit(".", 1)[0])
+
+
+# Class 7: every optimizer setting has a range, in one table, and the messages name it.
+def test_every_optimizer_setting_has_a_range():
+    for algorithm in OPTIMIZERS:
+        for name in _optimizer_parameters(algorithm):
+            assert f"optimizer.{name}" in RANGES, (algorithm, name)
+
+
+def algorithm_with(setting: str) -> str:
+    return next(a for a in OPTIMIZERS if setting in _optimizer_parameters(a))
+
+
+@pytest.mark.parametrize("key", [k for k, rule in RANGES.items() if k.startswith("optimizer.")
+                                 and rule is not bool and "[" not in k and k != "optimizer.seed"])
+def test_optimizer_settings_outside_their_range_are_refused(key):
+    rule, name = RANGES[key], key.split(".")[1]
+    algorithm = algorithm_with(name)
+    step = 1 if rule.integer else 1e-6
+    outside = [rule.low if rule.low_open else rule.low - step] + ([rule.high + step] if rule.high < math.inf else [])
+    for value in outside:
+        data = joint_task(optimizer={"algorithm": algorithm, name: value})
+        assert_refused(lambda: parse_task(data), rf"^{key}: must be {re.escape(str(rule))}, got {value}$", key)
+    inside = rule.high if rule.high < math.inf and name not in ("refine_starts",) else rule.low + step
+    settings = parse_task(joint_task(optimizer={"algorithm": algorithm, name: inside})).optimizer["settings"]
+    assert settings[name] == inside
+
+
+@pytest.mark.parametrize("settings, path", [
+    ({"nests": 0}, "optimizer.nests"), ({"iterations": -1}, "optimizer.iterations"),
+    ({"refine_starts": -2}, "optimizer.refine_starts"), ({"pa": 1.5}, "optimizer.pa"), ({"pa": -0.1}, "optimizer.pa"),
+    ({"alpha": 0}, "optimizer.alpha"), ({"nests": 4, "refine_starts": 5}, "optimizer.refine_starts"),
+    ({"algorithm": "pso", "particles": 10**9}, "optimizer.particles"),
+])
+def test_counts_probabilities_and_steps_are_checked(settings, path):
+    assert_refused(lambda: parse_task(joint_task(optimizer={"algorithm": "cuckoo", **settings})), "", path)
+
+
+def test_messages_show_values_cut():
+    error = assert_refused(lambda: parse_task(joint_task(name=["x" * 10**6])), "must be a non-empty string")
+    assert len(str(error)) < 200
+    error = assert_refused(lambda: parse_task(joint_task(**{"x" * 10**6: 1})), "unknown key")
+    assert len(str(error)) < 300
+
+
+def task_with(where: str, value) -> dict:
+    """The paper's Cartesian task (or joint task, for waypoints.joints_deg and limits) with ``where`` set;
+    an optimizer setting comes with an algorithm that has it."""
+    joint = where.startswith(("waypoints.joints_deg", "limits", "name", "version"))
+    optimizer = {"algorithm": "cuckoo", "bounds_s": [3.0, 5.0], "weights": [1.0, 1.0]}
+    data = joint_task(optimizer=optimizer) if joint else cartesian_task(
+        ik={"seed": 0}, path={"mode": "linear"}, trajectory={"family": "hybrid"}, optimizer=optimizer)
+    parts = re.findall(r"[^.\[\]]+|\[\d+\]", where)
+    node = data
+    for part in parts[:-1]:
+        node = node[int(part[1:-1])] if part.startswith("[") else node.setdefault(part, {})
+    node[int(parts[-1][1:-1]) if parts[-1].startswith("[") else parts[-1]] = value
+    if parts[0] == "optimizer" and any(parts[1] in _optimizer_parameters(a) for a in OPTIMIZERS):
+        data["optimizer"]["algorithm"] = algorithm_with(parts[1])
+    return data
