@@ -22,14 +22,12 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
-import yaml
 
-from .errors import RobotError, shown
+from .errors import RobotError, TaskError, shown
 from .limits import JointLimits
+from .yaml_input import read_yaml
 
 _LIMIT_FILE_KEYS = {"acceleration_deg_s2": "acceleration", "jerk_deg_s3": "jerk"}
-#: Largest limits file read [bytes] (it holds two lists of numbers).
-_LIMIT_FILE_BYTES = 2**20
 #: Pinocchio's single-axis revolute joints, the only ones planned (task keys are in degrees).
 _REVOLUTE = ("JointModelRX", "JointModelRY", "JointModelRZ", "JointModelRevoluteUnaligned")
 #: Pinocchio's prismatic joints, named as such when refused.
@@ -211,16 +209,10 @@ def _read_limit_file(path: Path, model: pin.Model) -> dict[str, dict[str, float]
     if not path.is_file():
         return {}
     try:
-        with path.open("rb") as file:
-            raw = file.read(_LIMIT_FILE_BYTES + 1)
-    except OSError as exc:
-        raise RobotError(f"cannot read limits file {path}: {exc.strerror or exc}") from None
-    if len(raw) > _LIMIT_FILE_BYTES:
-        raise RobotError(f"limits file {path} is larger than {_LIMIT_FILE_BYTES} bytes")
-    try:
-        data = yaml.safe_load(raw)
-    except Exception as exc:  # YAMLError, or a value the constructor cannot convert, or nesting too deep
-        raise RobotError(f"limits file {path} is not valid YAML: {_first_line(str(exc))}") from None
+        data = read_yaml(path, "limits file")
+    except TaskError as exc:
+        raise RobotError(f"limits file {path}: {exc.problem}" if exc.path == str(path) else
+                         f"limits file {path}: {exc}") from None
     data = {} if data is None else data
     keys = " and ".join(_LIMIT_FILE_KEYS)
     if not isinstance(data, dict):

@@ -23,7 +23,7 @@ Schema (version 1)::
 Every single number has the range given in ``RANGES`` (seeds are integers in [0, 2^63),
 ``sample_rate_hz`` at most 100 kHz, every optimizer setting has its own range); a task
 file is UTF-8 (byte-order mark optional) or UTF-16/UTF-32 with a byte-order mark, at
-most ``MAX_TASK_BYTES`` long, nested at most ``MAX_NESTING`` deep, expanding to at most
+most ``MAX_FILE_BYTES`` long, nested at most ``MAX_NESTING`` deep, expanding to at most
 ``MAX_VALUES`` values, with no key twice in a mapping.
 
 Every error is a ``TaskError`` naming the key path, e.g.
@@ -32,37 +32,26 @@ Every error is a ``TaskError`` naming the key path, e.g.
 
 from __future__ import annotations
 
-import codecs
 import inspect
 import math
-import os
 import re
-import stat
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import yaml
 
-from .errors import SHOWN_VALUE_CHARS, PlannerError, TaskError, shown
+from .errors import SHOWN_VALUE_CHARS, TaskError, shown
 from .ik import BRANCH_RULES
 from .splines import FAMILIES
 from .timing import OPTIMIZERS, cuckoo_search
 from .timing.problem import OBJECTIVES
+from .yaml_input import MAX_FILE_BYTES, MAX_NESTING, MAX_VALUES, key_path, read_yaml
 
 SCHEMA_VERSION = 1
 #: Default shortest segment duration [s]: one period of a 1 kHz controller. Merged repeated
 #: via-points keep their zero-length segment.
 MIN_SEGMENT_S = 1e-3
-#: Largest task file read [bytes]: 40 times a 1000-waypoint task (~100 kB). The YAML parser
-#: reads about 1 MB/s of dense values, so this also bounds the time spent reading.
-MAX_TASK_BYTES = 4 * 2**20
-#: Deepest nesting of lists and mappings in a task file (the schema itself needs 4).
-MAX_NESTING = 64
-#: Most values (scalars, lists, mappings and keys) a task file may expand to, an alias counting
-#: as everything it stands for: a 1000-waypoint Cartesian task has about 26 000. This refuses
-#: alias bombs ("billion laughs") before they cost time or memory.
-MAX_VALUES = 200_000
 #: Largest seed of the random generators (numpy takes seeds in [0, 2^63) here).
 MAX_SEED = 2**63 - 1
 _TOP_KEYS = ("version", "name", "robot", "waypoints", "limits", "ik", "path", "trajectory", "optimizer")
@@ -70,12 +59,6 @@ PATH_MODES = ("joint", "linear")
 _LIMIT_KEYS = {"velocity_deg_s": "velocity", "acceleration_deg_s2": "acceleration", "jerk_deg_s3": "jerk"}
 _LIMIT_KEY_OF = {**{name: key for key, name in _LIMIT_KEYS.items()}, "lower": "position_deg", "upper": "position_deg"}
 _COMMON_OPTIMIZER_KEYS = ("algorithm", "seed", "bounds_s", "objective", "weights")
-#: Byte-order marks a task file may start with: (mark, Python codec, name in messages); UTF-32
-#: first, as its little-endian mark starts with UTF-16's.
-_BYTE_ORDER_MARKS = ((codecs.BOM_UTF32_LE, "utf-32", "UTF-32"), (codecs.BOM_UTF32_BE, "utf-32", "UTF-32"),
-                     (codecs.BOM_UTF8, "utf-8-sig", "UTF-8"), (codecs.BOM_UTF16_LE, "utf-16", "UTF-16"),
-                     (codecs.BOM_UTF16_BE, "utf-16", "UTF-16"))
-_PLAIN_KEY = re.compile(r"[A-Za-z0-9_\-]{1,40}")
 _CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f]")
 
 
@@ -211,150 +194,6 @@ class Task:
     path: PathOptions = field(default_factory=PathOptions)
 
 
-# ---------------------------------------------------------------------------- reading YAML
-
-
-def _key_text(key) -> str:
-    """A mapping key as a key-path component: plain short names as they are, anything else shown."""
-    return key if isinstance(key, str) and _PLAIN_KEY.fullmatch(key) else shown(key, 40)
-
-
-def _key_path(path: str, key) -> str:
-    """Key path of ``key`` in the mapping at ``path``."""
-    return f"{path}.{_key_text(key)}" if path else _key_text(key)
-
-
-def _child_path(path: str, index) -> str:
-    """Key path of a YAML node under ``path``: ``index`` is its list position or its key's node."""
-    if isinstance(index, int):
-        return f"{path}[{index}]"
-    return _key_path(path, index.value if isinstance(index, yaml.ScalarNode) else "?")
-
-
-def _where(mark) -> str:
-    """A YAML mark as ``line L, column C`` (both from 1)."""
-    return f"line {mark.line + 1}, column {mark.column + 1}"
-
-
-class _TaskLoader(yaml.SafeLoader):
-    """``yaml.SafeLoader`` that refuses, with a ``TaskError`` naming the key path and line: a key
-    twice in one mapping, nesting deeper than ``MAX_NESTING``, recursive aliases and documents
-    expanding to more than ``MAX_VALUES`` values. A scalar its constructor cannot convert
-    (``2001-13-45``, an integer of 5000 digits) is a ``yaml.YAMLError``."""
-
-    def __init__(self, text: str):
-        super().__init__(text)
-        self._paths: list[str] = []         # key paths of the nodes being composed, outermost first
-        self._sizes: dict[int, int] = {}    # id(node) -> values it expands to, once composed
-        self._values = 0                    # values of the document so far, aliases expanded
-
-    def _count(self, values: int, path: str, mark) -> None:
-        self._values += values
-        if self._values > MAX_VALUES:
-            raise TaskError(path, f"the task expands to more than {MAX_VALUES} values by line {mark.line + 1} "
-                                  f"(aliases count as everything they stand for)")
-
-    def compose_node(self, parent, index):
-        outer = self._paths[-1] if self._paths else ""
-        path = outer if index is None else _child_path(outer, index)  # a key's path is its mapping's
-        mark = self.peek_event().start_mark
-        if self.check_event(yaml.AliasEvent):
-            anchor = self.peek_event().anchor
-            node = super().compose_node(parent, index)  # raises on an undefined alias
-            if id(node) not in self._sizes:
-                raise TaskError(path, f"alias *{shown(anchor, 40)} at line {mark.line + 1} refers to a list "
-                                      f"or mapping containing it (recursive)")
-            self._count(self._sizes[id(node)], path, mark)
-            return node
-        if len(self._paths) >= MAX_NESTING:
-            raise TaskError(path, f"nested deeper than {MAX_NESTING} levels at line {mark.line + 1}")
-        self._count(1, path, mark)
-        self._paths.append(path)
-        try:
-            node = super().compose_node(parent, index)
-        finally:
-            self._paths.pop()
-        children = node.value if isinstance(node, yaml.SequenceNode) else \
-            [child for pair in node.value for child in pair] if isinstance(node, yaml.MappingNode) else ()
-        self._sizes[id(node)] = 1 + sum(self._sizes[id(child)] for child in children)
-        return node
-
-    def compose_mapping_node(self, anchor):
-        node = super().compose_mapping_node(anchor)
-        first: dict[tuple[str, str], yaml.Node] = {}
-        for key, _ in node.value:
-            if isinstance(key, yaml.ScalarNode) and key.tag != "tag:yaml.org,2002:merge":
-                earlier = first.setdefault((key.tag, key.value), key)
-                if earlier is not key:
-                    raise TaskError(_child_path(self._paths[-1], key),
-                                    f"duplicate key at {_where(key.start_mark)} (first at "
-                                    f"{_where(earlier.start_mark)}); each key may appear once in a mapping")
-        return node
-
-    def construct_object(self, node, deep=False):
-        try:
-            return super().construct_object(node, deep)
-        except (yaml.YAMLError, PlannerError):
-            raise
-        except (ValueError, TypeError, AttributeError, OverflowError) as exc:
-            kind = node.tag.rsplit(":", 1)[-1]
-            raise yaml.constructor.ConstructorError(None, None, f"cannot read {shown(node.value, 40)} as {kind} "
-                                                                f"({shown(str(exc), 60)})", node.start_mark) from None
-
-
-def _read_bytes(path: Path) -> bytes:
-    """The bytes of a regular file of at most ``MAX_TASK_BYTES`` (a device, pipe or folder is refused
-    before anything is read; the read itself is bounded)."""
-    try:
-        descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
-    except (OSError, ValueError) as exc:  # ValueError: a NUL character in the path
-        raise TaskError(str(path), f"cannot read task file ({getattr(exc, 'strerror', None) or exc})") from None
-    if not stat.S_ISREG(os.fstat(descriptor).st_mode):
-        os.close(descriptor)
-        raise TaskError(str(path), "cannot read task file (not a regular file: a folder, device or pipe)")
-    with os.fdopen(descriptor, "rb") as file:
-        try:
-            raw = file.read(MAX_TASK_BYTES + 1)
-        except OSError as exc:
-            raise TaskError(str(path), f"cannot read task file ({exc.strerror or exc})") from None
-    if len(raw) > MAX_TASK_BYTES:
-        raise TaskError(str(path), f"task file larger than {MAX_TASK_BYTES} bytes ({MAX_TASK_BYTES >> 20} MiB)")
-    return raw
-
-
-def _decode(raw: bytes, path: Path) -> str:
-    """Text of a task file: UTF-8 (byte-order mark optional) or UTF-16/UTF-32 with a byte-order mark."""
-    codec, encoding = next(((codec, name) for mark, codec, name in _BYTE_ORDER_MARKS if raw.startswith(mark)),
-                           ("utf-8", "UTF-8"))
-    try:
-        return raw.decode(codec)
-    except UnicodeDecodeError as exc:
-        raise TaskError(str(path), f"not valid {encoding} at byte {exc.start} ({exc.reason}); task files are "
-                                   f"UTF-8, or UTF-16/UTF-32 with a byte-order mark") from None
-
-
-def _parse_yaml(text: str, path: Path):
-    """The plain data of one YAML document (see ``_TaskLoader`` for what is refused)."""
-    loader = None
-    try:
-        loader = _TaskLoader(text)  # checks every character first
-        return loader.get_single_data()
-    except yaml.reader.ReaderError as exc:  # a character YAML does not allow, found before parsing
-        line = text.count("\n", 0, exc.position) + 1
-        column = exc.position - text.rfind("\n", 0, exc.position)
-        hint = " (a NUL: is the file UTF-16 without a byte-order mark?)" if exc.character in ("\0", 0) else ""
-        code = exc.character if isinstance(exc.character, int) else ord(exc.character)
-        raise TaskError(str(path), f"control character U+{code:04X} at line {line}, column {column} is not "
-                                   f"allowed in YAML{hint}") from None
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        raise TaskError(str(path), f"not valid YAML{where}: {getattr(exc, 'problem', None) or exc}") from None
-    finally:
-        if loader is not None:
-            loader.dispose()
-
-
 # ---------------------------------------------------------------------------- primitives
 
 
@@ -363,7 +202,7 @@ def _mapping(value, path: str, allowed) -> dict:
         raise TaskError(path, f"must be a mapping, got {type(value).__name__}")
     for key in value:
         if key not in allowed:
-            raise TaskError(_key_path(path, key), f"unknown key; expected one of: {', '.join(allowed)}")
+            raise TaskError(key_path(path, key), f"unknown key; expected one of: {', '.join(allowed)}")
     return value
 
 
@@ -386,14 +225,14 @@ def _number(value, path: str, *, positive: bool = False, integer: bool = False) 
 
 
 def _text_number_hint(value) -> str:
-    """A hint for text that reads as a finite number (YAML 1.1 reads ``1e9`` as text), else ''."""
+    """A hint for text that reads as a finite number (a quoted number, say), else ''."""
     if not isinstance(value, str) or len(value) > 40:
         return ""
     try:
         finite = math.isfinite(float(value))
     except ValueError:
         return ""
-    return " (text; write a number unquoted, exponents with a dot and a sign: 1.0e+9)" if finite else ""
+    return " (text: write the number without quotes)" if finite else ""
 
 
 def _ranged(value, path: str):
@@ -640,5 +479,4 @@ def parse_task(data, *, name: str = "task", source: Path | None = None) -> Task:
 def load_task(path) -> Task:
     """Read and validate a YAML task file (see the module docstring for what a file may be)."""
     path = Path(path)
-    data = _parse_yaml(_decode(_read_bytes(path), path), path)
-    return parse_task(data, name=path.stem, source=path)
+    return parse_task(read_yaml(path, "task file"), name=path.stem, source=path)

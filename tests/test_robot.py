@@ -114,10 +114,11 @@ def arm_with_limits(tmp_path, limits_text: str | bytes) -> Path:
     ("jerk_deg_s3: [1, 2, 3, 4, 0, 6]\n", r"of joint 'joint5' must be a positive number, got 0$"),
     ("speed: [1]\n", r"unknown key 'speed'; expected acceleration_deg_s2 and jerk_deg_s3"),
     ("- 1\n", r"must map acceleration_deg_s2 and jerk_deg_s3 to lists, got list"),
-    ("jerk_deg_s3: [1, 2\n", r"is not valid YAML"),
-    ("jerk_deg_s3: 2001-13-45\n", r"is not valid YAML: month must be in 1..12"),
-    ("a: " + "[" * 5000 + "]" * 5000, r"is not valid YAML"),
-    (b"jerk_deg_s3: [\xff]\n", r"is not valid YAML"),
+    ("jerk_deg_s3: [1, 2\n", r"not valid YAML at line 2, column 1"),
+    ("jerk_deg_s3: 2001-13-45\n", r"not valid YAML at line 1, column 14: .*month must be in 1..12"),
+    ("a: " + "[" * 5000 + "]" * 5000, r"nested deeper than 64 levels"),
+    (b"jerk_deg_s3: [\xff]\n", r"not valid UTF-8 at byte 14"),
+    ("jerk_deg_s3: [1, 2, 3, 4, 5, 6]\njerk_deg_s3: [1, 2, 3, 4, 5, 6]\n", r"duplicate key at line 2"),
 ])
 def test_bad_limits_file_names_file_key_joint_and_value(tmp_path, text, message):
     urdf = arm_with_limits(tmp_path, text)

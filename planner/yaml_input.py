@@ -1,0 +1,200 @@
+"""Reading a YAML file that may be hostile: bounded in size, nesting and expansion, strictly decoded,
+with no key twice in a mapping, every error a ``TaskError`` naming the file or key path and line.
+
+Used for task files and for a robot's limits file. Beyond ``yaml.safe_load`` it:
+
+* opens regular files only (a device, pipe or folder is refused before any read) and reads at
+  most ``MAX_FILE_BYTES``;
+* decodes UTF-8 (byte-order mark optional) or UTF-16/UTF-32 with a byte-order mark, nothing else;
+* refuses a key given twice in one mapping (YAML says keys are unique; PyYAML keeps the last),
+  nesting deeper than ``MAX_NESTING``, recursive aliases, and documents expanding to more than
+  ``MAX_VALUES`` values (an alias counts as everything it stands for: "billion laughs");
+* reads ``1e-4`` and ``2E+5`` as numbers, as YAML 1.2 does (YAML 1.1, PyYAML's, reads a float
+  without a dot as text, a trap for anyone writing small limits).
+"""
+
+from __future__ import annotations
+
+import codecs
+import os
+import re
+import stat
+from pathlib import Path
+
+import yaml
+
+from .errors import PlannerError, TaskError, shown
+
+#: Largest file read [bytes]: 40 times a 1000-waypoint task (~100 kB). The YAML parser
+#: reads about 1 MB/s of dense values, so this also bounds the time spent reading.
+MAX_FILE_BYTES = 4 * 2**20
+#: Deepest nesting of lists and mappings (the task schema itself needs 4).
+MAX_NESTING = 64
+#: Most values (scalars, lists, mappings and keys) a file may expand to, an alias counting
+#: as everything it stands for: a 1000-waypoint Cartesian task has about 26 000.
+MAX_VALUES = 200_000
+#: Byte-order marks a file may start with: (mark, Python codec, name in messages); UTF-32
+#: first, as its little-endian mark starts with UTF-16's.
+_BYTE_ORDER_MARKS = ((codecs.BOM_UTF32_LE, "utf-32", "UTF-32"), (codecs.BOM_UTF32_BE, "utf-32", "UTF-32"),
+                     (codecs.BOM_UTF8, "utf-8-sig", "UTF-8"), (codecs.BOM_UTF16_LE, "utf-16", "UTF-16"),
+                     (codecs.BOM_UTF16_BE, "utf-16", "UTF-16"))
+_PLAIN_KEY = re.compile(r"[A-Za-z0-9_\-]{1,40}")
+#: A YAML 1.2 float with an exponent and no dot (``1e-4``), which YAML 1.1 leaves as text.
+_EXPONENT_FLOAT = re.compile(r"^[-+]?[0-9]+[eE][-+]?[0-9]+$")
+
+
+def _key_text(key) -> str:
+    """A mapping key as a key-path component: plain short names as they are, anything else shown."""
+    return key if isinstance(key, str) and _PLAIN_KEY.fullmatch(key) else shown(key, 40)
+
+
+def key_path(path: str, key) -> str:
+    """Key path of ``key`` in the mapping at ``path``."""
+    return f"{path}.{_key_text(key)}" if path else _key_text(key)
+
+
+def _child_path(path: str, index) -> str:
+    """Key path of a YAML node under ``path``: ``index`` is its list position or its key's node."""
+    if isinstance(index, int):
+        return f"{path}[{index}]"
+    return key_path(path, index.value if isinstance(index, yaml.ScalarNode) else "?")
+
+
+def _where(mark) -> str:
+    """A YAML mark as ``line L, column C`` (both from 1)."""
+    return f"line {mark.line + 1}, column {mark.column + 1}"
+
+
+class _StrictLoader(yaml.SafeLoader):
+    """``yaml.SafeLoader`` that refuses, with a ``TaskError`` naming the key path and line: a key
+    twice in one mapping, nesting deeper than ``MAX_NESTING``, recursive aliases and documents
+    expanding to more than ``MAX_VALUES`` values. A scalar its constructor cannot convert
+    (``2001-13-45``, an integer of 5000 digits) is a ``yaml.YAMLError``."""
+
+    def __init__(self, text: str):
+        super().__init__(text)
+        self._paths: list[str] = []         # key paths of the nodes being composed, outermost first
+        self._sizes: dict[int, int] = {}    # id(node) -> values it expands to, once composed
+        self._values = 0                    # values of the document so far, aliases expanded
+
+    def _count(self, values: int, path: str, mark) -> None:
+        self._values += values
+        if self._values > MAX_VALUES:
+            raise TaskError(path, f"the file expands to more than {MAX_VALUES} values by line {mark.line + 1} "
+                                  f"(aliases count as everything they stand for)")
+
+    def compose_node(self, parent, index):
+        outer = self._paths[-1] if self._paths else ""
+        path = outer if index is None else _child_path(outer, index)  # a key's path is its mapping's
+        mark = self.peek_event().start_mark
+        if self.check_event(yaml.AliasEvent):
+            anchor = self.peek_event().anchor
+            node = super().compose_node(parent, index)  # raises on an undefined alias
+            if id(node) not in self._sizes:
+                raise TaskError(path, f"alias *{shown(anchor, 40)} at line {mark.line + 1} refers to a list "
+                                      f"or mapping containing it (recursive)")
+            self._count(self._sizes[id(node)], path, mark)
+            return node
+        if len(self._paths) >= MAX_NESTING:
+            raise TaskError(path, f"nested deeper than {MAX_NESTING} levels at line {mark.line + 1}")
+        self._count(1, path, mark)
+        self._paths.append(path)
+        try:
+            node = super().compose_node(parent, index)
+        finally:
+            self._paths.pop()
+        children = node.value if isinstance(node, yaml.SequenceNode) else \
+            [child for pair in node.value for child in pair] if isinstance(node, yaml.MappingNode) else ()
+        self._sizes[id(node)] = 1 + sum(self._sizes[id(child)] for child in children)
+        return node
+
+    def compose_mapping_node(self, anchor):
+        node = super().compose_mapping_node(anchor)
+        first: dict[tuple[str, str], yaml.Node] = {}
+        for key, _ in node.value:
+            if isinstance(key, yaml.ScalarNode) and key.tag != "tag:yaml.org,2002:merge":
+                earlier = first.setdefault((key.tag, key.value), key)
+                if earlier is not key:
+                    raise TaskError(_child_path(self._paths[-1], key),
+                                    f"duplicate key at {_where(key.start_mark)} (first at "
+                                    f"{_where(earlier.start_mark)}); each key may appear once in a mapping")
+        return node
+
+    def construct_object(self, node, deep=False):
+        try:
+            return super().construct_object(node, deep)
+        except (yaml.YAMLError, PlannerError):
+            raise
+        except (ValueError, TypeError, AttributeError, OverflowError) as exc:
+            kind = node.tag.rsplit(":", 1)[-1]
+            raise yaml.constructor.ConstructorError(None, None, f"cannot read {shown(node.value, 40)} as {kind} "
+                                                                f"({shown(str(exc), 60)})", node.start_mark) from None
+
+
+def _read_bytes(path: Path, what: str) -> bytes:
+    """The bytes of a regular file of at most ``MAX_FILE_BYTES`` (a device, pipe or folder is refused
+    before anything is read; the read itself is bounded)."""
+    try:
+        descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
+    except (OSError, ValueError) as exc:  # ValueError: a NUL character in the path
+        raise TaskError(str(path), f"cannot read {what} ({getattr(exc, 'strerror', None) or exc})") from None
+    if not stat.S_ISREG(os.fstat(descriptor).st_mode):
+        os.close(descriptor)
+        raise TaskError(str(path), f"cannot read {what} (not a regular file: a folder, device or pipe)")
+    with os.fdopen(descriptor, "rb") as file:
+        try:
+            raw = file.read(MAX_FILE_BYTES + 1)
+        except OSError as exc:
+            raise TaskError(str(path), f"cannot read {what} ({exc.strerror or exc})") from None
+    if len(raw) > MAX_FILE_BYTES:
+        raise TaskError(str(path), f"{what} larger than {MAX_FILE_BYTES} bytes ({MAX_FILE_BYTES >> 20} MiB)")
+    return raw
+
+
+def _decode(raw: bytes, path: Path, what: str) -> str:
+    """Text of a file: UTF-8 (byte-order mark optional) or UTF-16/UTF-32 with a byte-order mark."""
+    codec, encoding = next(((codec, name) for mark, codec, name in _BYTE_ORDER_MARKS if raw.startswith(mark)),
+                           ("utf-8", "UTF-8"))
+    try:
+        return raw.decode(codec)
+    except UnicodeDecodeError as exc:
+        raise TaskError(str(path), f"not valid {encoding} at byte {exc.start} ({exc.reason}); {what}s are "
+                                   f"UTF-8, or UTF-16/UTF-32 with a byte-order mark") from None
+
+
+def _parse_yaml(text: str, path: Path):
+    """The plain data of one YAML document (see ``_StrictLoader`` for what is refused)."""
+    loader = None
+    try:
+        loader = _StrictLoader(text)  # checks every character first
+        return loader.get_single_data()
+    except yaml.reader.ReaderError as exc:  # a character YAML does not allow, found before parsing
+        line = text.count("\n", 0, exc.position) + 1
+        column = exc.position - text.rfind("\n", 0, exc.position)
+        hint = " (a NUL: is the file UTF-16 without a byte-order mark?)" if exc.character in ("\0", 0) else ""
+        code = exc.character if isinstance(exc.character, int) else ord(exc.character)
+        raise TaskError(str(path), f"control character U+{code:04X} at line {line}, column {column} is not "
+                                   f"allowed in YAML{hint}") from None
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        raise TaskError(str(path), f"not valid YAML{where}: {getattr(exc, 'problem', None) or exc}") from None
+    finally:
+        if loader is not None:
+            loader.dispose()
+
+
+_StrictLoader.add_implicit_resolver("tag:yaml.org,2002:float", _EXPONENT_FLOAT, list("-+0123456789"))
+
+
+def read_yaml(path, what: str = "YAML file"):
+    """The plain data of the one YAML document in the file at ``path`` (see the module docstring).
+
+    Args:
+        what: what the file is, for messages ("task file", "limits file").
+
+    Raises:
+        TaskError: naming the file (or the key path) and what is wrong with it.
+    """
+    path = Path(path)
+    return _parse_yaml(_decode(_read_bytes(path, what), path, what), path)
