@@ -43,6 +43,8 @@ class PlanResult:
         timings_s: wall time of each stage [s].
         robot: the robot, for robot tasks.
         ik: one IK solution per Cartesian waypoint (residuals, branches, joint-space jumps).
+        branch_times: total time [s] of each branch rule's sequence, when both were timed.
+        branch_kept: the rule (``optimal`` or ``continuous``) whose IK sequence was planned.
         path: for Cartesian tasks, how the tool follows the straight segments between
             waypoints (``linear`` mode) or strays from them (``joint`` mode).
     """
@@ -58,6 +60,7 @@ class PlanResult:
     ik: list[IKSolution] | None = None
     path: StraightPath | None = None
     branch_times: dict[str, float] = field(default_factory=dict)
+    branch_kept: str | None = None
 
     @property
     def waypoint_via(self) -> np.ndarray:
@@ -113,7 +116,8 @@ class PlanResult:
         summary = {"robot": {"name": self.robot.name, "urdf": str(self.robot.urdf_path),
                              "tool_frame": self.robot.tool_frame}}
         if self.ik is not None:
-            summary["ik"] = {"branch": self.task.ik.branch, "timed_sequences_s": self.branch_times, "waypoints": [
+            summary["ik"] = {"branch": self.task.ik.branch, "sequence_kept": self.branch_kept,
+                             "timed_sequences_s": self.branch_times, "waypoints": [
                 {"waypoint": i, "position_error_m": s.position_error, "orientation_error_rad": s.orientation_error,
                  "attempts": s.attempts, "solutions": s.solutions, "chosen_solution": s.chosen,
                  "joint_jump_deg": np.rad2deg(s.jump)} for i, s in enumerate(self.ik)]}
@@ -264,7 +268,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         except PlannerError:
             return None
 
-    branch_times, timed = {}, None
+    branch_times, timed, kept = {}, None, task.ik.branch if ik is not None else None
     if alternative is not None:
         other = np.array([solution.q for solution in alternative])
         if not np.allclose(other, via, rtol=0, atol=1e-9):
@@ -273,7 +277,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
                             for name, t in (("optimal", mine), ("continuous", theirs))}
             timed = mine
             if theirs is not None and (mine is None or branch_times["continuous"] < branch_times["optimal"]):
-                ik, via, timed = alternative, other, theirs
+                ik, via, timed, kept = alternative, other, theirs, "continuous"
     path = None
     if poses is not None and task.path.mode == "linear":
         path, (problem, result) = follow_straight_lines(robot, poses, via, time_via_points, task.path.tolerance_m,
@@ -289,4 +293,4 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
     timings["optimization"] = time.perf_counter() - start
     check_sample_count(task, trajectory.total_time)
     figures = kinematic_figures(trajectory)
-    return PlanResult(task, via, limits, result, trajectory, figures, timings, robot, ik, path, branch_times)
+    return PlanResult(task, via, limits, result, trajectory, figures, timings, robot, ik, path, branch_times, kept)

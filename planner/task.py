@@ -444,6 +444,19 @@ def check_limit_counts(limits: dict[str, np.ndarray], joints: int, context: str)
             raise TaskError(f"limits.{_LIMIT_KEY_OF[key]}", f"must have {joints} values {context}, got {len(values)}")
 
 
+def _check_joint_counts(joints: int, limits: dict[str, np.ndarray]) -> None:
+    """Via-points of ``joints`` values and the limit lists agree (a task without a robot).
+
+    When every limit list gives the same other count, the via-points are the odd one out
+    and are named; otherwise the limit list that differs from the via-points is.
+    """
+    counts = {len(values) for values in limits.values()}
+    if len(counts) == 1 and joints not in counts:
+        raise TaskError("waypoints.joints_deg", f"via-points have {joints} values each, but every limit list "
+                                                f"has {counts.pop()} (one per joint)")
+    check_limit_counts(limits, joints, "(one per joint, as the via-points have)")
+
+
 def parse_task(data, *, name: str = "task", source: Path | None = None) -> Task:
     """Validate a task given as plain data (the parsed YAML)."""
     document = _mapping(data, "", _TOP_KEYS)
@@ -469,7 +482,7 @@ def parse_task(data, *, name: str = "task", source: Path | None = None) -> Task:
         raise TaskError("limits", "a joint-space task without a robot needs velocity_deg_s, "
                                   "acceleration_deg_s2 or jerk_deg_s3")
     if joints is not None:
-        check_limit_counts(limits, joints.shape[1], "(one per joint)")
+        _check_joint_counts(joints.shape[1], limits)
     family, rate, min_segment = _trajectory(document.get("trajectory"), "trajectory")
     optimizer = _optimizer(document.get("optimizer"), "optimizer")
     label = _text(document["name"], "name") if "name" in document else name

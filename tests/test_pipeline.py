@@ -147,3 +147,37 @@ def test_ik_searches_the_task_position_ranges(branch):
     for solution, waypoint in zip(result.ik, result.task.cartesian_waypoints):
         reached = result.robot.forward_kinematics(solution.q)
         np.testing.assert_allclose(reached.translation, waypoint.position, atol=1e-9)
+
+
+def test_summary_says_which_rule_sequence_was_planned(monkeypatch):
+    """The `optimal` rule's sequence made slow on purpose (a full turn of the base joint on the way
+    to the place poses): the faster `continuous` sequence must be planned and the summary must say so."""
+    import dataclasses
+
+    import planner.pipeline as pipeline
+    real = pipeline.solve_waypoints
+
+    def slowed(robot, poses, **options):
+        solutions = real(robot, poses, **options)
+        if options["branch"] != "optimal":
+            return solutions
+        turned = []
+        for s in solutions:
+            q = s.q.copy()
+            if q[0] > 0:
+                q[0] -= 2 * np.pi  # the same pose, the long way round
+            turned.append(dataclasses.replace(s, q=q))
+        return turned
+    monkeypatch.setattr(pipeline, "solve_waypoints", slowed)
+    result = plan(TASKS / "ur5_pick_and_place.yaml")
+    summary = result.summary()["ik"]
+    times = summary["timed_sequences_s"]
+    assert times["continuous"] < times["optimal"] and summary["sequence_kept"] == "continuous"
+    assert result.trajectory.total_time == pytest.approx(times["continuous"])
+    assert result.via_points[:, 0].min() > -np.pi  # not the slowed sequence (its base joint passes -320 deg)
+
+
+def test_summary_says_optimal_when_it_is_faster():
+    summary = plan(TASKS / "ur5_pick_and_place.yaml").summary()["ik"]
+    times = summary["timed_sequences_s"]
+    assert summary["sequence_kept"] == min(times, key=times.get) == "optimal"
