@@ -485,6 +485,9 @@ def parse_task(data, *, name: str = "task", source: Path | None = None) -> Task:
         _check_joint_counts(joints.shape[1], limits)
     family, rate, min_segment = _trajectory(document.get("trajectory"), "trajectory")
     optimizer = _optimizer(document.get("optimizer"), "optimizer")
+    if optimizer["bounds"] is not None and min_segment > optimizer["bounds"][1]:
+        raise TaskError("trajectory.min_segment_s", f"{min_segment:g} s exceeds the upper duration bound "
+                                                    f"optimizer.bounds_s[1] = {optimizer['bounds'][1]:g} s")
     label = _text(document["name"], "name") if "name" in document else name
     return Task(label, joints, cartesian, robot, limits, family, rate, min_segment, optimizer, source, ik, path)
 
