@@ -208,7 +208,7 @@ def _insert(robot: Robot, poses: list[pin.SE3], segment: int, local: int, fracti
             break
     if best.residual > 1e-9:
         raise IKError(f"{where}: the straight line leaves the reachable workspace (best residual "
-                      f"{best.position_error:.3g} m, {best.orientation_error:.3g} rad)",
+                      f"{best.position_error:.3g} m, {np.rad2deg(best.orientation_error):.3g} deg)",
                       waypoint=segment, residual=best.residual)
     fractions.insert(local + 1, u)
     configurations.insert(local + 1, best.q)

@@ -7,10 +7,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .limits import QUANTITIES, JointLimits
+from .limits import DEGREE_UNITS, QUANTITIES, JointLimits
 from .splines import PiecewisePolynomial
 
-_UNITS_DEG = ("deg", "deg/s", "deg/s^2", "deg/s^3")
+#: Most samples per joint drawn in a profile figure.
+PLOT_SAMPLES = 20_000
+#: Via-point times are drawn as vertical lines up to this many via-points.
+PLOT_VIA_LINES = 200
 
 
 def markdown_table(header: list[str], rows: list[list]) -> str:
@@ -29,7 +32,9 @@ def plot_profiles(trajectory: PiecewisePolynomial, limits: JointLimits, path: Pa
     """Position, velocity, acceleration and jerk of every joint against time, as PNG.
 
     Dashed lines in each joint's colour mark its limits; dotted grey lines the
-    via-point times. The title and joint names are plain text, whatever they hold
+    via-point times (up to ``PLOT_VIA_LINES`` via-points). A long trajectory is
+    sampled more sparsely than ``rate_hz``, at ``PLOT_SAMPLES`` samples in all:
+    a figure is about a thousand pixels wide. The title and joint names are plain text, whatever they hold
     (``$...$`` is not mathtext, a leading ``_`` does not hide a joint); characters
     the font lacks are drawn as boxes, without a warning.
     """
@@ -37,7 +42,7 @@ def plot_profiles(trajectory: PiecewisePolynomial, limits: JointLimits, path: Pa
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    times, values = trajectory.sample(rate_hz)
+    times, values = trajectory.sample(min(rate_hz, PLOT_SAMPLES / trajectory.total_time))
     names = joint_names or [f"J{j + 1}" for j in range(trajectory.joint_count)]
     with matplotlib.rc_context({"text.parse_math": False}), warnings.catch_warnings():
         warnings.filterwarnings("ignore", message=r"Glyph \d+ .* missing from font", category=UserWarning)
@@ -52,9 +57,10 @@ def plot_profiles(trajectory: PiecewisePolynomial, limits: JointLimits, path: Pa
                 for bound in (bounds[k][0][j], bounds[k][1][j]):
                     if np.isfinite(bound):
                         axis.axhline(np.rad2deg(bound), color=colour, linestyle="--", linewidth=0.7, alpha=0.6)
-            for t in trajectory.via_times:
-                axis.axvline(t, color="0.6", linestyle=":", linewidth=0.8)
-            axis.set_ylabel(f"{('position', *QUANTITIES)[k]} [{_UNITS_DEG[k]}]")
+            if len(trajectory.via_times) <= PLOT_VIA_LINES:
+                for t in trajectory.via_times:
+                    axis.axvline(t, color="0.6", linestyle=":", linewidth=0.8)
+            axis.set_ylabel(f"{('position', *QUANTITIES)[k]} [{DEGREE_UNITS[k]}]")
             axis.grid(alpha=0.3)
             if k == 0:  # labels given explicitly: legend() would drop names starting with "_"
                 axis.legend(lines, names, ncol=min(trajectory.joint_count, 7), loc="upper center",

@@ -50,3 +50,18 @@ def test_every_joint_is_in_the_legend(tmp_path, monkeypatch):
 def test_markdown_table_cells():
     table = markdown_table(["a", "b"], [[1.23456, float("inf")], ["x", 2]])
     assert table.splitlines() == ["| a | b |", "|---|---|", "| 1.235 | - |", "| x | 2 |"]
+
+
+def test_a_long_trajectory_is_drawn_from_a_bounded_number_of_samples(tmp_path, monkeypatch):
+    """Sampling at the figure's 200 Hz would exceed the sample cap: the figure samples more sparsely."""
+    import planner.report as report
+    from planner.splines import MAX_SAMPLES
+    via = np.array([[0.0], [1.0], [0.5]])
+    trajectory = get_family("cubic").build(via, np.full(4, 0.8 * MAX_SAMPLES / 200.0 / 4 * 2))
+    assert trajectory.total_time * 200.0 > MAX_SAMPLES
+    drawn = []
+    original = trajectory.sample
+    monkeypatch.setattr(type(trajectory), "sample", lambda self, rate: drawn.append(rate) or original(rate))
+    report.plot_profiles(trajectory, JointLimits.create(1, velocity=[1.0]), tmp_path / "long.png")
+    assert (tmp_path / "long.png").stat().st_size > 10_000
+    assert drawn and drawn[0] * trajectory.total_time <= report.PLOT_SAMPLES + 1
