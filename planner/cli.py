@@ -33,6 +33,7 @@ def _plan(args) -> int:
     progress = TerminalProgress("optimizing", quiet=args.quiet)
     with output_folder(args.out, force=args.force) as staging:
         result = plan(args.task, progress=progress)
+        progress.note(f"writing the outputs to {args.out}")
         result.write(staging)
     out = Path(args.out)
     if not args.quiet:
@@ -84,8 +85,35 @@ def _replay(args) -> int:
     return 0
 
 
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return version("planner")
+    except PackageNotFoundError:  # run from a source tree that is not installed
+        return "unknown (not installed)"
+
+
+def _seed(text: str) -> int:
+    """A seed argument: a whole number in [0, 2^63)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a whole number, got {text!r}") from None
+    if not 0 <= value < 2**63:
+        raise argparse.ArgumentTypeError(f"must be in [0, 2^63), got {value}")
+    return value
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line usage errors (exit 2), like every other error of the command line."""
+
+    def error(self, message: str):
+        self.exit(2, f"error: {self.prog}: {one_line(message)} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="planner", description="Time-optimal joint trajectories through via-points.")
+    parser = _Parser(prog="planner", description="Time-optimal joint trajectories through via-points.")
+    parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of unexpected errors")
     commands = parser.add_subparsers(dest="command", required=True)
     plan = commands.add_parser("plan", help="plan a task file and write the outputs")
@@ -100,12 +128,12 @@ def build_parser() -> argparse.ArgumentParser:
     reproduce.add_argument("--out", default="out/reproduce", help="output folder (default: out/reproduce)")
     reproduce.add_argument("--force", action="store_true", help="write into a folder of other files (as plan --force)")
     reproduce.add_argument("--quick", action="store_true", help="small optimizer budgets (for tests)")
-    reproduce.add_argument("--seed", type=int, default=0)
-    reproduce.add_argument("--quiet", action="store_true")
+    reproduce.add_argument("--seed", type=_seed, default=0, help="seed of the stochastic optimizers (default: 0)")
+    reproduce.add_argument("--quiet", action="store_true", help="print nothing on success")
     reproduce.set_defaults(run=_reproduce)
     replay = commands.add_parser("replay", help="open a trajectory.rrd in the Rerun viewer (needs a display), "
                                                 "or check/export it without one")
-    replay.add_argument("recording", type=Path)
+    replay.add_argument("recording", type=Path, help="a trajectory.rrd written by planner plan")
     replay.add_argument("--check", action="store_true",
                         help="read it back without a viewer and re-check it against its recorded limits")
     replay.add_argument("--export-csv", type=Path, metavar="PATH", help="write its joint samples as CSV")

@@ -5,7 +5,9 @@ Each stage takes and returns plain objects; this module only wires them.
 
 from __future__ import annotations
 
+import os
 import time
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
@@ -23,7 +25,7 @@ from .recording import write_recording
 from .report import plot_profiles
 from .robot import Robot, load_robot
 from .splines import MAX_SAMPLES, PiecewisePolynomial
-from .task import Task, check_limit_counts, load_task
+from .task import Task, check_limit_counts, load_task, parse_task
 from .timing import OptimizationResult, TimingProblem, optimize
 
 _LIMIT_UNITS = ("deg_s", "deg_s2", "deg_s3")
@@ -200,8 +202,29 @@ def robot_limits(robot: Robot, task: Task) -> JointLimits:
     return limits
 
 
+def as_task(task) -> Task:
+    """A ``Task`` from a ``Task``, a task file's path (str or path-like), or a mapping of the task
+    file's schema (``parse_task``: relative URDF paths are then taken from the working directory).
+
+    Raises:
+        TaskError: anything else, or a task that does not validate.
+    """
+    if isinstance(task, Task):
+        return task
+    if isinstance(task, Mapping):
+        return parse_task(dict(task))
+    if isinstance(task, (str, os.PathLike)):
+        return load_task(task)
+    raise TaskError("", f"a task is a Task, a task file's path or a mapping of the task schema, "
+                        f"not {type(task).__name__}")
+
+
 def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
-    """Plan a task (a ``Task`` or a path to a task file) and return the result (nothing written).
+    """Plan a task and return the result (nothing written; ``PlanResult.save`` writes it).
+
+    Args:
+        task: a ``Task``, a task file's path, or a mapping of the task file's schema (``as_task``).
+        progress: stage notes and optimizer progress (default: silent).
 
     Raises:
         PlannerError: a bad task, an unknown robot or frame, an unreachable pose,
@@ -209,11 +232,11 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
     """
     timings: dict[str, float] = {}
     start = time.perf_counter()
-    if not isinstance(task, Task):
-        task = load_task(task)
+    task = as_task(task)
     progress = progress or TerminalProgress("", quiet=True)
     robot, ik, alternative = None, None, None
     if task.robot is not None:
+        progress.note(f"loading robot {task.robot.name or task.robot.urdf}")
         robot = load_robot(task.robot.urdf, task.robot.name, task.robot.tool_frame)
         limits = robot_limits(robot, task)
         robot = replace(robot, limits=limits)  # IK searches the very ranges the timing enforces
@@ -227,6 +250,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
                                             f"got {len(task.ik.start)}")
         poses = [pose_from_position_quaternion(w.position, w.quaternion_xyzw) for w in task.cartesian_waypoints]
         hints = [w.hint for w in task.cartesian_waypoints]
+        progress.note(f"inverse kinematics: {len(poses)} waypoints ({task.ik.branch} branch rule)")
         ik = solve_waypoints(robot, poses, hints=hints, start=task.ik.start, branch=task.ik.branch, limits=limits,
                              seed=task.ik.seed)
         if task.ik.branch == "optimal":  # the timing below keeps the faster of the two rules' sequences
@@ -247,24 +271,27 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
     check_sample_count(task, shortest_total_time(via, limits, task), lower_bound=True)
     start = time.perf_counter()
     settings = task.optimizer
-    progress.label = f"optimizing ({settings['algorithm']})"
 
-    def time_via_points(points: np.ndarray) -> tuple[PiecewisePolynomial, tuple[TimingProblem, OptimizationResult]]:
+    def time_via_points(points: np.ndarray, what: str = "") -> tuple[PiecewisePolynomial,
+                                                                      tuple[TimingProblem, OptimizationResult]]:
+        progress.label = f"timing {len(points)} via-points{what} ({task.family}, {settings['algorithm']})"
         problem = TimingProblem(points, task.family, limits, bounds=settings["bounds"],
                                 objective=settings["objective"], weights=settings["weights"],
                                 min_duration=task.min_segment_s)
         result = optimize(problem, settings["algorithm"], seed=settings["seed"], progress=progress,
                           **settings["settings"])
+        progress.note(f"{progress.label}: total time {result.total_time:.6g} s, "
+                      f"{'feasible' if result.feasible else 'INFEASIBLE'} ({result.wall_time_s:.2f} s)")
         if not result.feasible:
             worst = kinematic_figures(problem.trajectory(result.durations)).violations(limits)
             raise InfeasibleError(f"no feasible timing found by {result.algorithm}: largest constraint ratio "
                                   f"{result.max_ratio:.6g} (limit 1)" + (f"; {worst[0]}" if worst else ""))
         return problem.trajectory(result.durations), (problem, result)
 
-    def timed_or_none(points: np.ndarray):
-        """``time_via_points(points)``, or None where the sequence cannot be timed."""
+    def timed_or_none(points: np.ndarray, rule: str):
+        """``time_via_points`` of one branch rule's IK sequence, or None where it cannot be timed."""
         try:
-            return time_via_points(points)
+            return time_via_points(points, f" of the {rule} rule's IK sequence")
         except PlannerError:
             return None
 
@@ -272,7 +299,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
     if alternative is not None:
         other = np.array([solution.q for solution in alternative])
         if not np.allclose(other, via, rtol=0, atol=1e-9):
-            mine, theirs = timed_or_none(via), timed_or_none(other)
+            mine, theirs = timed_or_none(via, "optimal"), timed_or_none(other, "continuous")
             branch_times = {name: None if t is None else t[0].total_time
                             for name, t in (("optimal", mine), ("continuous", theirs))}
             timed = mine

@@ -1,4 +1,11 @@
-"""Progress lines on a terminal; silent when not a TTY or when asked to be quiet."""
+"""Progress reports: stage lines on stdout, and a live status line on a terminal.
+
+Stage notes (``note``: a stage starting, an optimizer run's outcome) are plain lines on
+stdout, with the result summary, so a log (``> log``, a CI job) shows what happened and
+stderr keeps only errors, each one line. When stderr is a terminal the optimizer's
+``(done, total, best)`` calls also redraw a live status line there; otherwise they print
+nothing (no control characters in logs). ``quiet`` silences both.
+"""
 
 from __future__ import annotations
 
@@ -7,29 +14,39 @@ import time
 
 
 class TerminalProgress:
-    """A ``progress(done, total, best)`` callback that redraws one status line on stderr."""
+    """A ``progress(done, total, best)`` callback for optimizers, plus ``note`` for stages.
 
-    def __init__(self, label: str, *, quiet: bool = False, stream=None, min_interval_s: float = 0.1):
-        self.stream = stream or sys.stderr
-        self.enabled = not quiet and hasattr(self.stream, "isatty") and self.stream.isatty()
+    Attributes:
+        label: what the optimizer is doing, printed before its progress (set per run).
+    """
+
+    def __init__(self, label: str, *, quiet: bool = False, notes=None, status=None, min_interval_s: float = 0.1):
+        self.notes = notes or sys.stdout
+        self.status = status or sys.stderr
+        self.enabled = not quiet
+        self.live = self.enabled and hasattr(self.status, "isatty") and self.status.isatty()
         self.label = label
         self._last = 0.0
         self._min_interval = min_interval_s
 
     def __call__(self, done: int, total: int, best: float) -> None:
-        if not self.enabled:
+        if not self.live:
             return
         now = time.monotonic()
         if done < total and now - self._last < self._min_interval:
             return
         self._last = now
-        self.stream.write(f"\r{self.label}: {done}/{total}  best {best:.6g}\033[K")
-        if done >= total:
-            self.stream.write("\n")
-        self.stream.flush()
+        self._write(self.status, f"\r{self.label}: {done}/{total} iterations, best objective {best:.6g}\033[K"
+                                 + ("\n" if done >= total else ""))
 
     def note(self, message: str) -> None:
-        """A one-off status line (a stage starting or ending)."""
+        """A one-off line on stdout: a stage starting or ending."""
         if self.enabled:
-            self.stream.write(f"{message}\n")
-            self.stream.flush()
+            self._write(self.notes, f"{message}\n")
+
+    def _write(self, stream, text: str) -> None:
+        try:
+            stream.write(text)
+            stream.flush()
+        except (OSError, ValueError):  # a closed or broken stream must not stop the work
+            self.enabled = self.live = False

@@ -37,6 +37,7 @@ import subprocess
 import sys
 import tempfile
 import warnings
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -123,7 +124,8 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
     views = []
     if result.robot is not None:
         _log_robot(rec, result, times, values[0])
-        views.append(rrb.Spatial3DView(origin="/", contents=["/robot/**", "/scene/**"], name="robot"))
+        views.append(rrb.Spatial3DView(origin="/", name="robot", contents=[  # visual geometry only
+            "/robot/**", "/scene/**", "- /robot/**/collision_geometries/**"]))
     plots = [rrb.TimeSeriesView(origin=f"/profiles/{p}", name=p) for p in _PROFILES]
     rec.send_blueprint(rrb.Blueprint(rrb.Horizontal(*views, rrb.Vertical(*plots)) if views else rrb.Vertical(*plots),
                                      collapse_panels=True))
@@ -131,16 +133,36 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
     rec.log(_END, rr.AnyValues(planner_end=json.dumps(end_marker(times, rate_hz))), static=True)
     rec.flush()
     rec.disconnect()
+@contextmanager
+def _ros_package_path(package_dirs):
+    """``ROS_PACKAGE_PATH`` extended, for the block, so that Rerun's URDF importer resolves the
+    ``package://NAME/...`` meshes of packages in ``package_dirs`` (a folder holding a
+    ``package.xml`` is package NAME, found in its parent folder)."""
+    folders = [str(Path(d).resolve().parent) for d in package_dirs if (Path(d) / "package.xml").is_file()]
+    previous = os.environ.get("ROS_PACKAGE_PATH")
+    if folders:
+        os.environ["ROS_PACKAGE_PATH"] = os.pathsep.join(folders + ([previous] if previous else []))
+    try:
+        yield
+    finally:
+        if folders:
+            if previous is None:
+                os.environ.pop("ROS_PACKAGE_PATH", None)
+            else:
+                os.environ["ROS_PACKAGE_PATH"] = previous
+
+
 def _log_robot(rec, result, times: np.ndarray, positions: np.ndarray) -> None:
     import rerun as rr
     import rerun.urdf as rru
 
     robot = result.robot
-    try:
-        tree = rru.UrdfTree.from_file_path(robot.urdf_path, entity_path_prefix="robot")
-    except Exception as exc:  # rerun raises plain exceptions for unreadable URDFs
-        raise RecordingError(f"Rerun cannot read the URDF {robot.urdf_path}: {exc}") from None
-    tree.log_urdf_to_recording(rec)
+    with _ros_package_path(robot.package_dirs):
+        try:
+            tree = rru.UrdfTree.from_file_path(robot.urdf_path, entity_path_prefix="robot")
+        except Exception as exc:  # rerun raises plain exceptions for unreadable URDFs
+            raise RecordingError(f"Rerun cannot read the URDF {robot.urdf_path}: {exc}") from None
+        tree.log_urdf_to_recording(rec)
     planned = {name: j for j, name in enumerate(robot.joint_names)}
     time_index = [rr.TimeColumn("time", duration=times)]
     for joint in tree.joints():

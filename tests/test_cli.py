@@ -90,3 +90,40 @@ def test_reproduce_quick_writes_tables_and_figure(tmp_path):
     assert unbounded and all(r["feasible"] for r in unbounded)
     assert min(r["total_time_s"] for r in unbounded) < 17.5
     assert (out / "figure4.png").stat().st_size > 10_000
+
+
+def test_version_and_help_for_every_option(capsys):
+    from planner.cli import build_parser
+    with pytest.raises(SystemExit) as info:
+        main(["--version"])
+    assert info.value.code == 0 and capsys.readouterr().out.startswith("planner 0.")
+    parser = build_parser()
+    commands = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
+    for name, command in [("planner", parser), *commands.choices.items()]:
+        for action in command._actions:
+            if action.__class__.__name__ not in ("_HelpAction", "_SubParsersAction"):
+                assert action.help, f"{name}: {action.dest} has no help text"
+
+
+@pytest.mark.parametrize("argv", [["plan"], ["reproduce", "--seed", "-1"], ["reproduce", "--seed", "x"], [],
+                                  ["replay"], ["plan", "t.yaml", "--bogus"]])
+def test_usage_errors_are_one_line_and_exit_2(argv, capsys):
+    with pytest.raises(SystemExit) as info:
+        main(argv)
+    err = capsys.readouterr().err
+    assert info.value.code == 2 and err.count("\n") == 1 and err.startswith("error: planner")
+
+
+def test_progress_is_plain_lines_when_not_on_a_terminal(tmp_path, capsys):
+    """Not on a terminal: one line per stage and per optimizer run on stdout, no control characters,
+    nothing on stderr; --quiet prints nothing at all."""
+    task = small_task(tmp_path, bounds_s=[3, 5])
+    assert main(["plan", str(task), "--out", str(tmp_path / "a")]) == 0
+    captured = capsys.readouterr()
+    out = captured.out
+    assert captured.err == ""
+    assert "\r" not in out and "\033" not in out
+    assert "timing 8 via-points (hybrid, cuckoo): total time 27 s, feasible" in out
+    assert f"writing the outputs to {tmp_path / 'a'}" in out
+    assert main(["plan", str(task), "--out", str(tmp_path / "b"), "--quiet"]) == 0
+    assert capsys.readouterr() == ("", "")

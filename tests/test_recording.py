@@ -477,3 +477,18 @@ def test_a_plan_with_repeated_via_points_replays_and_checks(tmp_path, capsys):
     assert list(recorded.trajectory.via_knots) == [0, 2, 2, 4]
     assert main(["replay", str(out / "trajectory.rrd"), "--check"]) == 0
     assert "limits hold" in capsys.readouterr().out
+
+
+def test_example_robot_data_meshes_resolve_without_warnings(tmp_path, capfd):
+    """The UR5's package:// meshes are found (no importer warning on stderr), and the 3D view
+    draws visual geometry only."""
+    result = plan(TASKS / "ur5_pick_and_place.yaml")
+    capfd.readouterr()
+    write_recording(result, tmp_path / "ur5.rrd")
+    err = capfd.readouterr().err
+    assert "WARN" not in err and "package://" not in err
+    import rerun.chunk as rc
+    chunks = rc.RrdReader(str(tmp_path / "ur5.rrd")).stream().to_chunks()
+    meshes = {c.entity_path for c in chunks if "/visual_geometries/" in c.entity_path
+              and any("Asset3D" in name for name in c.to_record_batch().schema.names)}
+    assert len(meshes) >= 7  # base, shoulder, upper arm, forearm, three wrists
