@@ -42,7 +42,7 @@ def _plan(args) -> int:
               f"largest ratio {result.optimization.max_ratio:.4f}, feasible {result.optimization.feasible}")
         print(f"timings: {timing}")
         print(f"outputs in {out}/: " + ", ".join(sorted(p.name for p in out.iterdir() if not p.name.startswith("."))))
-        print(f"open the recording with: planner replay {out / 'trajectory.rrd'}  "
+        print(f"open the recording with: {_command()} replay {out / 'trajectory.rrd'}  "
               f"(check it without a viewer: add --check)")
     return 0
 
@@ -83,6 +83,14 @@ def _replay(args) -> int:
     if target is None:
         open_in_viewer(args.recording)
     return 0
+
+
+def _command() -> str:
+    """How this command was typed (``.venv/bin/planner``, ``planner``), so printed commands run as shown."""
+    typed = sys.argv[0] if sys.argv and sys.argv[0] else ""
+    if Path(typed).name == "planner":
+        return typed
+    return f"{sys.executable} -m planner.cli"
 
 
 def _version() -> str:

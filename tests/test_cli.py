@@ -127,3 +127,25 @@ def test_progress_is_plain_lines_when_not_on_a_terminal(tmp_path, capsys):
     assert f"writing the outputs to {tmp_path / 'a'}" in out
     assert main(["plan", str(task), "--out", str(tmp_path / "b"), "--quiet"]) == 0
     assert capsys.readouterr() == ("", "")
+
+
+def test_the_printed_replay_command_runs_as_shown(tmp_path):
+    """What `make demo` prints (the command's own path, here .venv/bin/planner) runs in a new shell
+    whose PATH does not hold the environment."""
+    import os
+    import shlex
+    import subprocess
+    import sys
+    script = Path(sys.executable).parent / "planner"
+    environment = {k: v for k, v in os.environ.items() if k not in ("VIRTUAL_ENV", "PYTHONPATH")}
+    environment["PATH"] = "/usr/bin:/bin"
+    done = subprocess.run([str(script), "plan", str(small_task(tmp_path, bounds_s=[3, 5])), "--out", "out"],
+                          cwd=tmp_path, env=environment, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    line = next(l for l in done.stdout.splitlines() if l.startswith("open the recording with: "))
+    command = line.removeprefix("open the recording with: ").split("  (")[0] + " --check"
+    assert command.startswith(f"{script} replay ")
+    check = subprocess.run(command, shell=True, cwd=tmp_path, env=environment, capture_output=True, text=True,
+                           timeout=300)
+    assert check.returncode == 0 and "limits hold" in check.stdout, check.stderr
+    assert shlex.split(command)[0] == str(script)
