@@ -72,7 +72,7 @@ def _replay(args) -> int:
     recorded = read_recording(args.recording)
     if target is not None:
         with atomic_file(target) as staging:
-            write_trajectory_csv(staging, recorded.trajectory, recorded.rate_hz)
+            write_trajectory_csv(staging, recorded.trajectory, recorded.rate_hz, recorded.joint_names)
     if args.check:
         check = recorded.check()
         print(f"{args.recording}: {len(recorded.joint_names)} joints, {len(recorded.times)} samples, "

@@ -2,26 +2,35 @@
 
 from __future__ import annotations
 
+import csv
 import json
 from pathlib import Path
 
 import numpy as np
 
+from .limits import default_joint_names
 from .splines import PiecewisePolynomial
 
 _QUANTITY_COLUMNS = (("q", "deg"), ("v", "deg_s"), ("a", "deg_s2"), ("j", "deg_s3"))
 
 
-def json_ready(value):
-    """Plain JSON types from numpy values; non-finite floats (absent limits) become null."""
+def json_ready(value, digits: int | None = None):
+    """Plain JSON types from numpy values; non-finite floats (absent limits) become null.
+
+    Args:
+        digits: significant digits floats keep (``None``: all). A report for people uses 12, which
+            removes the float noise of sums (14.999999999999998 -> 15.0) and loses nothing measurable.
+    """
     if isinstance(value, dict):
-        return {str(k): json_ready(v) for k, v in value.items()}
+        return {str(k): json_ready(v, digits) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [json_ready(v) for v in value]
+        return [json_ready(v, digits) for v in value]
     if isinstance(value, np.ndarray):
-        return json_ready(value.tolist())
+        return json_ready(value.tolist(), digits)
     if isinstance(value, (np.floating, float)):
-        return float(value) if np.isfinite(value) else None
+        if not np.isfinite(value):
+            return None
+        return float(value) if digits is None else float(f"{float(value):.{digits}g}")
     if isinstance(value, np.integer):
         return int(value)
     if isinstance(value, np.bool_):
@@ -29,25 +38,30 @@ def json_ready(value):
     return value
 
 
-def write_json(path: Path, data) -> None:
-    path.write_text(json.dumps(json_ready(data), indent=2) + "\n")
+def write_json(path: Path, data, digits: int | None = None) -> None:
+    """``data`` as indented JSON (``json_ready``, with ``digits`` significant digits if given)."""
+    path.write_text(json.dumps(json_ready(data, digits), indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
 
 
 #: Rows sampled and written at once by ``write_trajectory_csv`` (bounds its memory).
 CSV_CHUNK_ROWS = 20_000
 
 
-def write_trajectory_csv(path: Path, trajectory: PiecewisePolynomial, rate_hz: float) -> None:
+def write_trajectory_csv(path: Path, trajectory: PiecewisePolynomial, rate_hz: float,
+                         joint_names: list[str] | None = None) -> None:
     """Samples at ``rate_hz``: time [s], then position, velocity, acceleration, jerk per joint [deg-based].
 
-    Written ``CSV_CHUNK_ROWS`` rows at a time, so memory stays flat whatever the length.
+    Columns are named ``q_<joint>_deg``, ``v_<joint>_deg_s``, ``a_<joint>_deg_s2``,
+    ``j_<joint>_deg_s3`` (joint names default to joint1, joint2, ...; a header cell is quoted
+    where a name needs it). Written ``CSV_CHUNK_ROWS`` rows at a time, so memory stays flat
+    whatever the length.
     """
     times = trajectory.sample_times(rate_hz)
-    joints = trajectory.joint_count
-    header = ["time_s"] + [f"{name}{j + 1}_{unit}" for name, unit in _QUANTITY_COLUMNS for j in range(joints)]
+    names = joint_names or default_joint_names(trajectory.joint_count)
+    header = ["time_s"] + [f"{quantity}_{name}_{unit}" for quantity, unit in _QUANTITY_COLUMNS for name in names]
     row = ",".join(["%.10g"] * len(header)) + "\n"
-    with path.open("w", newline="") as handle:
-        handle.write(",".join(header) + "\n")
+    with path.open("w", newline="", encoding="utf-8") as handle:
+        csv.writer(handle, lineterminator="\n").writerow(header)
         for first in range(0, len(times), CSV_CHUNK_ROWS):
             chunk = times[first:first + CSV_CHUNK_ROWS]
             values = np.rad2deg(trajectory.states(chunk))
@@ -57,7 +71,7 @@ def write_trajectory_csv(path: Path, trajectory: PiecewisePolynomial, rate_hz: f
 
 def read_trajectory_csv(path: Path) -> tuple[np.ndarray, np.ndarray]:
     """Inverse of ``write_trajectory_csv``: times (N,) [s] and values (4, N, J) [rad-based SI]."""
-    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2, encoding="utf-8")
     joints = (data.shape[1] - 1) // 4
     return data[:, 0], np.deg2rad(data[:, 1:].reshape(len(data), 4, joints).transpose(1, 0, 2))
 
@@ -79,7 +93,9 @@ def coefficients_document(trajectory: PiecewisePolynomial, joint_names: list[str
         "units": {"time": "s", "position": "rad"},
         "basis": "power series in local time tau = t - knot_times[k], lowest order first",
         "normalized_basis": "power series in s = (t - knot_times[k]) / durations_s[k] in [0, 1], lowest order first",
-        "joint_names": joint_names or [f"joint{j + 1}" for j in range(trajectory.joint_count)],
+        "joint_names": joint_names or list(default_joint_names(trajectory.joint_count)),
+        "coefficients_axes": ["segment", "joint", "power"],
+        "segment_degrees": trajectory.segment_degrees,
         "knot_times_s": trajectory.knot_times,
         "durations_s": durations,
         "via_times_s": trajectory.via_times,

@@ -29,6 +29,8 @@ from .task import Task, check_limit_counts, load_task, parse_task
 from .timing import OptimizationResult, TimingProblem, optimize
 
 _LIMIT_UNITS = ("deg_s", "deg_s2", "deg_s3")
+#: Significant digits of the numbers in summary.json (coefficients.json keeps every digit).
+SUMMARY_DIGITS = 12
 
 
 @dataclass
@@ -99,6 +101,7 @@ class PlanResult:
             "position_range_deg": {"min": to_deg(self.figures.position_min), "max": to_deg(self.figures.position_max)},
             "jerk_energy_rad2_s5": self.figures.jerk_energy,
             "optimizer": {
+                "requested_algorithm": self.task.optimizer["algorithm"],
                 "algorithm": result.algorithm, "seed": result.seed, "evaluations": result.evaluations,
                 "wall_time_s": result.wall_time_s, "objective": self.task.optimizer["objective"],
                 "objective_value": result.objective, "bounds_s": self.task.optimizer["bounds"],
@@ -151,14 +154,14 @@ class PlanResult:
         the existing ``folder`` (no atomicity of its own: ``save`` provides it)."""
         folder = Path(folder)
         start = time.perf_counter()
-        write_trajectory_csv(folder / "trajectory.csv", self.trajectory, self.task.sample_rate_hz)
+        write_trajectory_csv(folder / "trajectory.csv", self.trajectory, self.task.sample_rate_hz, self.joint_names)
         write_json(folder / "coefficients.json", coefficients_document(self.trajectory, self.joint_names))
         plot_profiles(self.trajectory, self.limits, folder / "profiles.png",
                       title=f"{self.task.name}: {self.task.family}, T = {self.trajectory.total_time:.3f} s",
                       joint_names=self.joint_names)
         write_recording(self, folder / "trajectory.rrd")
         self.timings_s["outputs"] = time.perf_counter() - start
-        write_json(folder / "summary.json", self.summary())
+        write_json(folder / "summary.json", self.summary(), digits=SUMMARY_DIGITS)
 
 
 def check_sample_count(task: Task, total_time: float, *, lower_bound: bool = False) -> None:

@@ -59,6 +59,13 @@ class PiecewisePolynomial:
         return self.durations.shape[0]
 
     @property
+    def segment_degrees(self) -> list[int]:
+        """(S,) the polynomial degree of each segment: its highest power with a non-zero coefficient
+        in any joint (the array is padded with zeros to the family's highest degree)."""
+        nonzero = np.any(self.coefficients != 0.0, axis=1)  # (S, k+1)
+        return [int(np.flatnonzero(row).max()) if row.any() else 0 for row in nonzero]
+
+    @property
     def joint_count(self) -> int:
         return self.coefficients.shape[1]
 

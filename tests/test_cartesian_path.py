@@ -68,7 +68,9 @@ def test_linear_mode_keeps_the_tool_on_the_straight_segments(tmp_path):
     with open(tmp_path / "out" / "trajectory.csv") as handle:
         rows = list(csv.DictReader(handle))
     times = np.array([float(r["time_s"]) for r in rows])
-    q = np.deg2rad([[float(r[f"q{j + 1}_deg"]) for j in range(6)] for r in rows])
+    q = np.zeros((len(rows), model.nq))  # the CSV's columns placed by joint name in the fresh model
+    for name in result.joint_names:
+        q[:, model.joints[model.getJointId(name)].idx_q] = np.deg2rad([float(r[f"q_{name}_deg"]) for r in rows])
     poses = [(w.position, Rotation.from_quat(w.quaternion_xyzw).as_matrix()) for w in task.cartesian_waypoints]
     via_times = result.trajectory.via_times[result.waypoint_via]
     for i in range(len(poses) - 1):

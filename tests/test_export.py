@@ -47,3 +47,21 @@ def test_sampling_is_capped_before_anything_is_allocated(trajectory):
     with pytest.raises(InputError, match=r"makes 1\.01e\+06 samples, above the cap of 1,000,000"):
         trajectory.sample(rate)
     assert len(trajectory.sample_times(0.99 * MAX_SAMPLES / trajectory.total_time)) <= MAX_SAMPLES
+
+
+def test_csv_columns_carry_the_joint_names(tmp_path, trajectory):
+    names = ["waist", "shoulder", "elbow, lower", "wrist 1", "wrist2", "wrist3"]
+    write_trajectory_csv(tmp_path / "t.csv", trajectory, 5.0, names)
+    import csv
+    with (tmp_path / "t.csv").open(encoding="utf-8") as handle:
+        header = next(csv.reader(handle))
+    assert header[:3] == ["time_s", "q_waist_deg", "q_shoulder_deg"] and header[3] == "q_elbow, lower_deg"
+    assert header[-1] == "j_wrist3_deg_s3" and len(header) == 1 + 4 * 6
+    times, values = read_trajectory_csv(tmp_path / "t.csv")
+    np.testing.assert_allclose(values, trajectory.sample(5.0)[1], rtol=1e-8, atol=1e-12)
+
+
+def test_coefficients_document_says_its_axes_and_degrees(trajectory):
+    document = coefficients_document(trajectory)
+    assert document["coefficients_axes"] == ["segment", "joint", "power"]
+    assert document["segment_degrees"] == [7] + [3] * 7 + [7]  # hybrid: 7th-order ends, cubic interior
