@@ -17,13 +17,14 @@ _LAZY = {
     "KinematicFigures": ".kinematics", "kinematic_figures": ".kinematics",
     "JointLimits": ".limits", "time_scale_factor": ".limits",
     "FAMILIES": ".splines", "PiecewisePolynomial": ".splines", "SplineFamily": ".splines", "get_family": ".splines",
-    "Robot": ".robot", "Task": ".task", "load_task": ".task", "PlanResult": ".pipeline", "plan": ".pipeline",
+    "Robot": ".robot", "Task": ".task", "load_task": ".task", "make_task": ".task", "pose_entry": ".task", "PlanResult": ".pipeline", "plan": ".pipeline",
 }
 
 __all__ = [
     "FAMILIES", "IKError", "InfeasibleError", "InputError", "JointLimits", "KinematicFigures", "OutputError",
     "PiecewisePolynomial", "PlanResult", "PlannerError", "RecordingError", "Robot", "RobotError", "SplineFamily",
-    "Task", "TaskError", "get_family", "kinematic_figures", "load_task", "plan", "time_scale_factor",
+    "Task", "TaskError", "get_family", "kinematic_figures", "load_task", "make_task", "plan", "pose_entry",
+    "time_scale_factor",
 ]
 
 

@@ -492,6 +492,57 @@ def parse_task(data, *, name: str = "task", source: Path | None = None) -> Task:
     return Task(label, joints, cartesian, robot, limits, family, rate, min_segment, optimizer, source, ik, path)
 
 
+def _plain(value):
+    """Python and numpy values as the plain lists and numbers a parsed task file holds."""
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, dict):
+        return {key: _plain(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(item) for item in value]
+    return value
+
+
+def pose_entry(pose=None, *, xyz_m=None, rpy_deg=None, quat_xyzw=None, hint_deg=None) -> dict:
+    """One Cartesian waypoint of the task schema, from a ``pinocchio.SE3`` (``pose``) or from a
+    position [m] and an orientation (``rpy_deg`` [deg], roll-pitch-yaw, or ``quat_xyzw``)."""
+    if pose is not None:
+        if not all(hasattr(pose, attribute) for attribute in ("translation", "rotation")):
+            raise TaskError("waypoints.cartesian", f"a pose must be a pinocchio.SE3, got {type(pose).__name__}")
+        import pinocchio as pin
+        xyz_m, quat_xyzw = pose.translation, pin.Quaternion(pose.rotation).coeffs()  # coeffs: x, y, z, w
+    entry = {"xyz_m": xyz_m, "rpy_deg": rpy_deg, "quat_xyzw": quat_xyzw, "hint_deg": hint_deg}
+    return _plain({key: value for key, value in entry.items() if value is not None})
+
+
+def make_task(*, name: str = "task", robot: dict | None = None, joints_deg=None, poses=None,
+              limits: dict | None = None, ik: dict | None = None, path: dict | None = None,
+              trajectory: dict | None = None, optimizer: dict | None = None) -> Task:
+    """A task built in Python, validated exactly as a task file (``parse_task``; errors name the same keys).
+
+    Args:
+        robot: ``{"urdf": path, "tool_frame": ...}`` or ``{"name": "ur5", "tool_frame": "tool0"}``.
+        joints_deg: (n, J) joint via-points [deg] (a joint-space task), or
+        poses: n tool poses: ``pinocchio.SE3`` objects or ``pose_entry`` mappings (a Cartesian task).
+        limits, ik, path, trajectory, optimizer: the task file's sections, keys as documented there
+            (numpy arrays are accepted wherever the file has lists).
+
+    Relative URDF paths are taken from the working directory.
+    """
+    if (joints_deg is None) == (poses is None):
+        raise TaskError("waypoints", "give exactly one of joints_deg or poses")
+    waypoints = {"joints_deg": joints_deg} if poses is None else {
+        "cartesian": [entry if isinstance(entry, dict) else pose_entry(entry) for entry in poses]}
+    document = {"version": SCHEMA_VERSION, "name": name, "waypoints": waypoints}
+    for key, section in (("robot", robot), ("limits", limits), ("ik", ik), ("path", path),
+                         ("trajectory", trajectory), ("optimizer", optimizer)):
+        if section is not None:
+            document[key] = section
+    return parse_task(_plain(document), name=name)
+
+
 def load_task(path) -> Task:
     """Read and validate a YAML task file (see the module docstring for what a file may be)."""
     path = Path(path)
