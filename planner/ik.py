@@ -275,18 +275,19 @@ def _distinct(robot: Robot, q: np.ndarray, others: list[IKSolution]) -> bool:
 
 
 def pose_solutions(robot: Robot, target: pin.SE3, limits: JointLimits, rng: np.random.Generator, *,
-                   starts: int = SOLUTION_STARTS,
-                   accept: float = 1e-9) -> tuple[list[IKSolution], IKSolution, int]:
+                   starts: int = SOLUTION_STARTS, accept: float = 1e-9,
+                   closed_form: bool = True) -> tuple[list[IKSolution], IKSolution, int]:
     """The distinct solutions of one pose within the ranges of ``limits``, the best solve
     (lowest residual, for an error message when there is none) and the solves used.
 
-    With a closed-form solver (``closed_form_solver``) these are its solutions, each refined
+    With a closed-form solver (``closed_form_solver``; ``closed_form`` False: the numeric search
+    regardless, for comparisons) these are its solutions, each refined
     by Newton steps (one solve). Otherwise each random start is solved without clipping; a
     converged solution with no 2 pi turn inside the ranges is solved again with clipping from
     its clipped value, and on a redundant arm it is ``centred``. Solutions equal up to 2 pi
     turns (within ``DISTINCT``) are one; at most ``MAX_SOLUTIONS`` are kept.
     """
-    solve = closed_form_solver(robot)
+    solve = closed_form_solver(robot) if closed_form else None
     lower, upper = _finite_ranges(robot)
     if solve is not None:
         seeds, starts = list(solve(target)), 1
