@@ -13,9 +13,12 @@ the error falls below 1e-9 (m and rad) in a few iterations.
 ``solve_waypoints`` chooses one solution per waypoint, by one of two rules:
 
 * ``optimal`` (default): ``pose_solutions`` finds every distinct solution of
-  each pose within the joint ranges (damped least squares from many random
-  starts, without clipping, then every 2 pi turn of a revolute joint that
-  stays in range; duplicates up to 2 pi turns removed), and ``choose_branches``
+  each pose within the joint ranges, then every 2 pi turn of a revolute joint
+  that stays in range (duplicates up to 2 pi turns removed). For a 6R arm of a
+  class with closed-form IK (``analytic_ik``: a spherical wrist, or three
+  parallel axes) the solutions come from the closed form, each refined by
+  Newton steps, so none is missed; otherwise from damped least squares from
+  many random starts, without clipping. ``choose_branches``
   picks one per waypoint by dynamic programming over the sequence, minimising
   the sum of the transition costs: the slowest joint's rest-to-rest time
   (``limits.rest_to_rest_time``) between consecutive configurations. A
@@ -29,17 +32,28 @@ the error falls below 1e-9 (m and rad) in a few iterations.
   the solution nearest the previous configuration is kept (revolute joints
   whose range allows it are shifted by multiples of 2 pi towards it).
 
+On a redundant arm (nv > 6) a pose has a continuum of solutions; each one found
+numerically (without a hint) is moved along the self-motion to the centre of the
+joint ranges (``centred``: Newton steps on the barrier
+sum_j (q_j - lower_j)^-p + (upper_j - q_j)^-p restricted to the pose; for large p
+its minimum approaches the largest smallest distance to a bound) so that it keeps
+a margin to the bounds.
+
 Either way each solution reports how many distinct solutions were found, which
-was chosen, and the joint-space jump from the previous waypoint.
+was chosen, the joint-space jump from the previous waypoint, and its margin,
+the smallest distance of a joint to a bound of its range.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+import weakref
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pinocchio as pin
 
+from .analytic_ik import Solver, analytic_solver
 from .errors import IKError, InputError
 from .limits import JointLimits, rest_to_rest_time
 from .robot import Robot
@@ -58,6 +72,22 @@ DISTINCT = 1e-5
 MAX_SOLUTIONS = 16
 #: Weight [s/rad] of the distance to the middle of the ranges, which only separates equal costs.
 _TIE_BREAK = 1e-4
+#: Newton iterations refining a closed-form solution (it starts within rounding of the pose).
+_REFINE_ITERATIONS = 4
+#: Power p of the barrier sum (distance to a bound)^-p [rad] that centring minimises.
+_BARRIER_POWER = 8
+#: Newton steps on the barrier moving a redundant arm's solution to the centre of the ranges.
+_CENTRING_STEPS = 80
+#: Trust radius [rad] of the first centring step, its shrinking factor per step, the fraction of the way
+#: to a bound a step may go, and the step length [rad] at which centring stops.
+_CENTRING_STEP = 0.2
+_SHRINK = 0.85
+_TO_BOUND = 0.9
+_CENTRED = 1e-10
+#: Fraction of its range by which a joint on a bound is moved inside before centring.
+_INSIDE = 1e-4
+#: The closed-form solver of each model (None: the arm fits no closed-form class).
+_SOLVERS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 @dataclass(frozen=True)
@@ -70,6 +100,8 @@ class IKSolution:
         iterations: DLS iterations of the accepted solve; attempts: solves tried.
         jump: |q - q_previous| [rad] (0 for the first waypoint).
         solutions: distinct solutions found for the pose (up to 2 pi turns); chosen: which (0-based).
+        margin_deg: the smallest distance of a joint to a bound of its range [deg], min_j
+            min(q_j - lower_j, upper_j - q_j) (inf if no joint has a bound; negative outside a range).
     """
 
     q: np.ndarray
@@ -80,6 +112,7 @@ class IKSolution:
     jump: float = 0.0
     solutions: int = 1
     chosen: int = 0
+    margin_deg: float = math.inf
 
     @property
     def residual(self) -> float:
@@ -118,7 +151,75 @@ def solve_pose(robot: Robot, target: pin.SE3, seed: np.ndarray, *, tolerance: fl
         step = jacobian.T @ np.linalg.solve(jacobian @ jacobian.T + damping * np.eye(6), error)
         q = np.clip(pin.integrate(robot.model, q, step), lower, upper)
     error = pose_error(robot, q, target)
-    return IKSolution(q, float(np.linalg.norm(error[:3])), float(np.linalg.norm(error[3:])), iteration)
+    return IKSolution(q, float(np.linalg.norm(error[:3])), float(np.linalg.norm(error[3:])), iteration,
+                      margin_deg=range_margin_deg(q, robot.limits))
+
+
+def range_margin_deg(q: np.ndarray, limits: JointLimits) -> float:
+    """The smallest distance [deg] of a joint of ``q`` [rad] to a bound of its range (inf without bounds)."""
+    return float(np.rad2deg(np.min(np.minimum(q - limits.lower, limits.upper - q))))
+
+
+def closed_form_solver(robot: Robot) -> Solver | None:
+    """``analytic_ik.analytic_solver`` of ``robot``'s model, built once per model."""
+    if robot.model not in _SOLVERS:
+        _SOLVERS[robot.model] = analytic_solver(robot)
+    return _SOLVERS[robot.model]
+
+
+def _barrier(q: np.ndarray, lower: np.ndarray, upper: np.ndarray,
+             bounded: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The gradient and diagonal Hessian of b(q) = sum_j (q_j - lower_j)^-p + (upper_j - q_j)^-p over the
+    bounded joints (p = ``_BARRIER_POWER``; q inside the ranges); an unbounded joint gets 0 and 1/(2 pi)^2."""
+    below, above = np.where(bounded, q - lower, 1.0), np.where(bounded, upper - q, 1.0)
+    p = _BARRIER_POWER
+    gradient = np.where(bounded, p * (above ** (-p - 1) - below ** (-p - 1)), 0.0)
+    hessian = np.where(bounded, p * (p + 1) * (below ** (-p - 2) + above ** (-p - 2)), (2 * np.pi) ** -2)
+    return gradient, hessian
+
+
+def centred(robot: Robot, target: pin.SE3, solution: IKSolution, limits: JointLimits,
+            accept: float = 1e-9) -> IKSolution:
+    """``solution`` moved along the self-motion of a redundant arm towards the centre of the ranges.
+
+    Minimises the barrier b (``_barrier``; for large p its minimum approaches the configuration whose
+    smallest distance to a bound is largest) on the configurations reaching ``target``. With its
+    gradient g, diagonal Hessian H, the pose error e and its Jacobian J (as in ``solve_pose``), each
+    step solves  min g^T dq + dq^T H dq / 2  subject to  J dq = e:
+
+        dq = H^-1 (J^T lambda - g),     lambda = (J H^-1 J^T)^-1 (e + J H^-1 g),
+
+    shortened to a trust radius (``_CENTRING_STEP``, shrinking by ``_SHRINK`` per step in the second half
+    of the ``_CENTRING_STEPS``, which damps the oscillation the curvature of the self-motion can cause) and to ``_TO_BOUND`` of the way to any
+    bound. A joint on a bound first moves ``_INSIDE`` of its range inside. Newton steps (``solve_pose``
+    without clipping) then bring the residual to ``TOLERANCE``; the result is kept if it reaches the
+    pose (``accept``), stays in the ranges and has a margin no smaller than before.
+    """
+    lower, upper = limits.lower, limits.upper
+    bounded = np.isfinite(lower) & np.isfinite(upper)
+    if not bounded.any() or not np.all((solution.q >= lower) & (solution.q <= upper)):
+        return solution
+    inset = np.where(bounded, _INSIDE * (upper - lower), 0.0)
+    q = np.clip(solution.q, lower + inset, upper - inset)
+    for iteration in range(_CENTRING_STEPS):
+        offset = robot.forward_kinematics(q).actInv(target)
+        error = pin.log6(offset).vector
+        jacobian = pin.Jlog6(offset) @ robot.frame_jacobian(q)
+        gradient, hessian = _barrier(q, lower, upper, bounded)
+        weighted = jacobian / hessian
+        multiplier = np.linalg.solve(weighted @ jacobian.T + _DAMPING_FLOOR * np.eye(6), error + weighted @ gradient)
+        step = (jacobian.T @ multiplier - gradient) / hessian
+        room = np.where(step < 0, q - lower, upper - q) / np.maximum(np.abs(step), 1e-300)
+        radius = _CENTRING_STEP * _SHRINK ** max(0, iteration - _CENTRING_STEPS // 2)
+        scale = min(1.0, radius / max(np.abs(step).max(), 1e-300), _TO_BOUND * room[bounded].min())
+        q = pin.integrate(robot.model, q, scale * step)
+        if scale * np.abs(step).max() < _CENTRED:
+            break
+    moved = solve_pose(robot, target, q, clip=False)
+    if (moved.residual <= accept and np.all((moved.q >= lower) & (moved.q <= upper))
+            and range_margin_deg(moved.q, limits) >= range_margin_deg(solution.q, limits)):
+        return replace(moved, iterations=solution.iterations + moved.iterations)
+    return solution
 
 
 def _nearest_turn(robot: Robot, q: np.ndarray, reference: np.ndarray) -> np.ndarray:
@@ -174,32 +275,53 @@ def _distinct(robot: Robot, q: np.ndarray, others: list[IKSolution]) -> bool:
 
 
 def pose_solutions(robot: Robot, target: pin.SE3, limits: JointLimits, rng: np.random.Generator, *,
-                   starts: int = SOLUTION_STARTS,
-                   accept: float = 1e-9) -> tuple[list[IKSolution], IKSolution, int]:
+                   starts: int = SOLUTION_STARTS, accept: float = 1e-9,
+                   closed_form: bool = True) -> tuple[list[IKSolution], IKSolution, int]:
     """The distinct solutions of one pose within the ranges of ``limits``, the best solve
-    (lowest residual, for an error message when there is none) and the starts used.
+    (lowest residual, for an error message when there is none) and the solves used.
 
-    Each random start is solved without clipping; a converged solution with no
-    2 pi turn inside the ranges is solved again with clipping from its clipped
-    value. Solutions equal up to 2 pi turns (within ``DISTINCT``) are one; at most
-    ``MAX_SOLUTIONS`` are kept.
+    With a closed-form solver (``closed_form_solver``; ``closed_form`` False: the numeric search
+    regardless, for comparisons) these are its solutions, each refined
+    by Newton steps (one solve). Otherwise each random start is solved without clipping; a
+    converged solution with no 2 pi turn inside the ranges is solved again with clipping from
+    its clipped value, and on a redundant arm it is ``centred``. Solutions equal up to 2 pi
+    turns (within ``DISTINCT``) are one; at most ``MAX_SOLUTIONS`` are kept.
     """
+    solve = closed_form_solver(robot) if closed_form else None
     lower, upper = _finite_ranges(robot)
+    if solve is not None:
+        seeds, starts = list(solve(target)), 1
+        if not seeds:  # out of reach: a solve from the middle of the ranges gives the residual to report
+            seeds = [(lower + upper) / 2]
+    else:
+        seeds = (lower + (upper - lower) * rng.random(robot.dof) for _ in range(starts))
     found: list[IKSolution] = []
     best = None
-    for attempt in range(1, starts + 1):
-        solution = solve_pose(robot, target, lower + (upper - lower) * rng.random(robot.dof), clip=False)
+    for attempt, seed in enumerate(seeds, start=1):
+        if solve is not None:
+            solution = solve_pose(robot, target, seed, clip=False, max_iterations=_REFINE_ITERATIONS)
+        else:
+            solution = solve_pose(robot, target, seed, clip=False)
         inside = solution.residual <= accept and len(turn_variants(robot, solution.q, limits)) > 0
-        if solution.residual <= accept and not inside:
+        if solution.residual <= accept and not inside and solve is None:
             solution = solve_pose(robot, target, solution.q)
             inside = solution.residual <= accept and len(turn_variants(robot, solution.q, limits)) > 0
+        if inside and robot.model.nv > 6:
+            solution = centred(robot, target, _widest_variant(robot, solution, limits), limits, accept)
         if best is None or (inside, -solution.residual) > (best[0], -best[1].residual):
             best = (inside, solution)
         if inside and _distinct(robot, solution.q, found):
             found.append(solution)
             if len(found) == MAX_SOLUTIONS:
                 break
-    return found, best[1], attempt
+    return found, best[1], starts if solve is not None else attempt
+
+
+def _widest_variant(robot: Robot, solution: IKSolution, limits: JointLimits) -> IKSolution:
+    """``solution`` turned (by 2 pi) into the ranges of ``limits``, with the widest margin of its variants."""
+    variants = turn_variants(robot, solution.q, limits)
+    q = max(variants, key=lambda v: range_margin_deg(v, limits))
+    return replace(solution, q=q, margin_deg=range_margin_deg(q, limits))
 
 
 def transition_costs(robot: Robot, limits: JointLimits, before: np.ndarray, after: np.ndarray) -> np.ndarray:
@@ -267,7 +389,7 @@ def solve_waypoints(robot: Robot, poses: list[pin.SE3], *, hints: list[np.ndarra
     rng = np.random.default_rng(seed)
     if branch == "optimal":
         return _optimal_branches(robot, poses, hints, start, limits or robot.limits, rng, accept)
-    return _continuous_branch(robot, poses, hints, start, rng, restarts, accept)
+    return _continuous_branch(robot, poses, hints, start, limits or robot.limits, rng, restarts, accept)
 
 
 def _optimal_branches(robot, poses, hints, start, limits, rng, accept) -> list[IKSolution]:
@@ -297,12 +419,12 @@ def _optimal_branches(robot, poses, hints, start, limits, rng, accept) -> list[I
         chosen = found[owner[k]]
         jump = float(np.linalg.norm(q - previous)) if previous is not None else 0.0
         solutions.append(IKSolution(q, chosen.position_error, chosen.orientation_error, chosen.iterations,
-                                    attempts, jump, len(found), int(owner[k])))
+                                    attempts, jump, len(found), int(owner[k]), range_margin_deg(q, limits)))
         previous = q
     return solutions
 
 
-def _continuous_branch(robot, poses, hints, start, rng, restarts, accept) -> list[IKSolution]:
+def _continuous_branch(robot, poses, hints, start, limits, rng, restarts, accept) -> list[IKSolution]:
     """``solve_waypoints`` with the ``continuous`` rule."""
     finite_lower, finite_upper = _finite_ranges(robot)
     previous = np.asarray(start, dtype=float) if start is not None else (finite_lower + finite_upper) / 2
@@ -319,7 +441,8 @@ def _continuous_branch(robot, poses, hints, start, rng, restarts, accept) -> lis
             if best is None or solution.residual < best.residual:
                 best = solution
             if solution.residual <= accept:
-                found.append(solution)
+                found.append(centred(robot, target, solution, limits, accept)
+                             if hint is None and robot.model.nv > 6 else solution)
                 if attempts == 1:
                     break
         if not found:
@@ -331,6 +454,7 @@ def _continuous_branch(robot, poses, hints, start, rng, restarts, accept) -> lis
         q = _nearest_turn(robot, chosen.q, previous) if hint is None else chosen.q
         jump = float(np.linalg.norm(q - previous)) if index else 0.0
         solutions.append(IKSolution(q, chosen.position_error, chosen.orientation_error, chosen.iterations,
-                                    attempts, jump, len(distinct), next(i for i, s in enumerate(distinct) if s is chosen)))
+                                    attempts, jump, len(distinct), next(i for i, s in enumerate(distinct) if s is chosen),
+                                    range_margin_deg(q, limits)))
         previous = q
     return solutions
