@@ -125,6 +125,7 @@ class PlanResult:
                              "timed_sequences_s": self.branch_times, "waypoints": [
                 {"waypoint": i, "position_error_m": s.position_error, "orientation_error_rad": s.orientation_error,
                  "attempts": s.attempts, "solutions": s.solutions, "chosen_solution": s.chosen,
+                 "margin_deg": s.margin_deg,
                  "joint_jump_deg": np.rad2deg(s.jump)} for i, s in enumerate(self.ik)]}
         if self.path is not None:
             options = self.task.path

@@ -181,3 +181,11 @@ def test_summary_says_optimal_when_it_is_faster():
     summary = plan(TASKS / "ur5_pick_and_place.yaml").summary()["ik"]
     times = summary["timed_sequences_s"]
     assert summary["sequence_kept"] == min(times, key=times.get) == "optimal"
+
+
+def test_summary_reports_each_waypoints_margin_to_the_ranges():
+    result = plan(TASKS / "ur5_pick_and_place.yaml")
+    waypoints = result.summary()["ik"]["waypoints"]
+    for entry, q in zip(waypoints, result.via_points[result.waypoint_via]):
+        independent = np.rad2deg(np.minimum(q - result.limits.lower, result.limits.upper - q)).min()
+        assert entry["margin_deg"] == pytest.approx(independent, abs=1e-9)
