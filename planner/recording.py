@@ -132,6 +132,19 @@ def _position_range(positions: np.ndarray, limits: JointLimits) -> tuple[float, 
     return low, high
 
 
+def _symmetric_range(values: np.ndarray, magnitudes: np.ndarray) -> tuple[float, float]:
+    """A derivative plot's range [deg]: +-(the largest value or limit, with a margin), widened to the next power
+    of ten when just short of it, so that the plot's power-of-ten ticks label more than its zero line."""
+    finite = magnitudes[np.isfinite(magnitudes)]
+    top = 1.08 * float(np.rad2deg(max(np.abs(values).max(), finite.max() if finite.size else 0.0)))
+    if top <= 0:
+        return -1.0, 1.0
+    decade = 10.0 ** math.floor(math.log10(top))
+    if top > 5 * decade:
+        top = max(top, 10.4 * decade)
+    return -top, top
+
+
 def plan_summary(result) -> str:
     """The markdown text of the summary panel: task, robot, family, optimizer, total time, the largest
     constraint ratio of each quantity (and its joint), feasibility."""
@@ -211,8 +224,8 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
 
     plots = [rrb.TimeSeriesView(origin=f"/profiles/{p}", name=f"{p} [{unit}]",
                                 plot_legend=rrb.PlotLegend(corner="LeftTop", visible=k == 0),
-                                axis_y=rrb.ScalarAxis(range=_position_range(values[0], result.limits))
-                                if k == 0 else None)
+                                axis_y=rrb.ScalarAxis(range=_position_range(values[0], result.limits) if k == 0
+                                                      else _symmetric_range(values[k], result.limits.magnitudes[k - 1])))
              for k, (p, unit) in enumerate(zip(_PROFILES, DEGREE_UNITS))]
     summary = rrb.TextDocumentView(origin=_SUMMARY, name="summary")
     if result.robot is not None:

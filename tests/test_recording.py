@@ -596,3 +596,13 @@ def test_the_eye_sees_every_point():
         vertical = np.arctan(np.abs(rays @ up) / depth).max() / np.radians(27.5)  # of half the 55 deg field of view
         horizontal = np.arctan(np.abs(rays @ right) / depth).max() / np.arctan(1.2 * np.tan(np.radians(27.5)))
         assert max(vertical, horizontal) < 1 and max(vertical, horizontal) > 0.8  # inside, and filling it
+
+
+@pytest.mark.parametrize("limit_deg, top_deg", [(90.0, 104.0), (60.0, 104.0), (180.0, 194.4), (1200.0, 1296.0)])
+def test_derivative_plots_show_their_limits_and_labelled_ticks(limit_deg, top_deg):
+    """The range holds the limits with a margin, and reaches the next power of ten when just short of it
+    (the plots label power-of-ten ticks only: +-95 would show a lone 0)."""
+    from planner.recording import _symmetric_range
+    values = np.deg2rad(np.array([[0.5 * limit_deg, -0.2 * limit_deg]]))
+    low, high = _symmetric_range(values, np.deg2rad([limit_deg, limit_deg / 2]))
+    assert low == -high and high == pytest.approx(top_deg)
