@@ -62,27 +62,40 @@ def _reproduce(args) -> int:
 
 
 def _replay(args) -> int:
+    from .errors import InputError
     from .export import write_trajectory_csv
     from .outputs import atomic_file, check_output_file
     from .recording import open_in_viewer, read_recording
-    target = args.export_csv
-    if target is not None:  # checked before reading: a bad target fails fast and leaves nothing
-        if check_output_file(target) == Path(args.recording).resolve():
-            raise OutputError(f"--export-csv {target} is the recording itself")
+    if args.time is not None and args.screenshot is None:
+        raise InputError("--time says when to take a --screenshot: give --screenshot OUT.png too")
+    for option, target in (("--export-csv", args.export_csv), ("--screenshot", args.screenshot)):
+        if target is not None:  # checked before reading: a bad target fails fast and leaves nothing
+            if check_output_file(target) == Path(args.recording).resolve():
+                raise OutputError(f"{option} {target} is the recording itself")
     recorded = read_recording(args.recording)
+    target = args.export_csv
     if target is not None:
         with atomic_file(target) as staging:
             write_trajectory_csv(staging, recorded.trajectory, recorded.rate_hz, recorded.joint_names)
+    code = 0
     if args.check:
         check = recorded.check()
         print(f"{args.recording}: {len(recorded.joint_names)} joints, {len(recorded.times)} samples, "
               f"T = {recorded.trajectory.total_time:.4f} s, largest ratio {check.largest_ratio:.4f}, "
               f"samples vs trajectory {check.deviation:.2e} rad (allowed {check.tolerance:.1e}), "
               f"{'limits hold' if not check.violations else 'VIOLATIONS: ' + '; '.join(check.violations)}")
-        return 0 if check.passed else 1
-    if target is None:
+        code = 0 if check.passed else 1
+    if args.screenshot is not None:
+        from .screenshot import render_screenshot
+        total = recorded.trajectory.total_time
+        at = total / 2 if args.time is None else args.time
+        if not 0.0 <= at <= total:
+            raise InputError(f"--time {args.time:g} s is outside the recording's 0 to {total:.4f} s")
+        with atomic_file(args.screenshot) as staging:
+            render_screenshot(args.recording, staging, at)
+    elif not args.check and target is None:
         open_in_viewer(args.recording)
-    return 0
+    return code
 
 
 def _command() -> str:
@@ -140,11 +153,17 @@ def build_parser() -> argparse.ArgumentParser:
     reproduce.add_argument("--quiet", action="store_true", help="print nothing on success")
     reproduce.set_defaults(run=_reproduce)
     replay = commands.add_parser("replay", help="open a trajectory.rrd in the Rerun viewer (needs a display), "
-                                                "or check/export it without one")
+                                                "or check/export/screenshot it without one")
     replay.add_argument("recording", type=Path, help="a trajectory.rrd written by planner plan")
     replay.add_argument("--check", action="store_true",
                         help="read it back without a viewer and re-check it against its recorded limits")
     replay.add_argument("--export-csv", type=Path, metavar="PATH", help="write its joint samples as CSV")
+    replay.add_argument("--screenshot", type=Path, metavar="OUT.png",
+                        help="render it with Rerun's headless viewer (no display needed, but a graphics adapter: "
+                             "a GPU, or apt-get install mesa-vulkan-drivers) and write a PNG")
+    from .screenshot import time_argument  # light: the standard library and planner.errors only
+    replay.add_argument("--time", type=time_argument, metavar="T",
+                        help="time of the --screenshot [s] (default: half the total time)")
     replay.set_defaults(run=_replay)
     return parser
 

@@ -5,14 +5,20 @@ What a recording holds (timeline ``time``, in seconds):
 * ``robot/...``: the robot from its URDF through Rerun's own URDF support
   (``rerun.urdf.UrdfTree``), its joints animated by per-joint transforms;
   joints the planner locked are logged once at their neutral value.
-* ``scene/tool_path`` (the tool frame's path, a 3D line),
-  ``scene/waypoints`` (the task's waypoints as RGB axes, labelled with their index
-  and, for Cartesian tasks, the IK solution chosen of those found), and for Cartesian
-  tasks ``scene/straight_segments`` (the straight lines between waypoints) and
-  ``scene/inserted_poses`` (poses ``linear`` mode inserted), in the robot's root frame.
-* ``profiles/{position,velocity,acceleration,jerk}/<joint>``: time series in
-  degrees, with ``.../limits/<joint>/{upper,lower}`` and, for positions,
-  via-point markers ``profiles/position/via_points/<joint>``.
+* ``scene/tool_path`` (the tool frame's path, a 3D line), ``scene/tool`` (the tool's position
+  at every sample, on the ``time`` timeline: it moves with the time cursor), ``scene/waypoints``
+  (the task's waypoints as RGB axes) and ``scene/waypoint_labels`` (one labelled point per place:
+  coincident waypoints share one label, "waypoints 0, 2", with the IK solution chosen of those found
+  for Cartesian tasks), and for Cartesian tasks ``scene/straight_segments`` (the straight lines
+  between waypoints) and ``scene/inserted_poses`` (poses ``linear`` mode inserted: small blue points,
+  unlabelled), in the robot's root frame.
+* ``profiles/{position,velocity,acceleration,jerk}/<joint>``: time series in degrees, each joint
+  in one colour (``JOINT_COLOURS``, matplotlib's default cycle as in ``profiles.png``) and named as
+  the joint in every plot; ``.../limits/<joint>/{upper,lower}``: its limits as thin dashed lines
+  (NaN gaps) of the same colour and name, so that the legend lists each joint once and no limit;
+  for positions, via-point markers ``profiles/position/via_points/<joint>`` (same colour and name).
+* ``summary``: a markdown text (task, robot, family, optimizer, total time, largest ratio per
+  quantity, feasibility).
 * ``trajectory/samples``: joint positions [rad] at every sample (float64),
   and static ``trajectory/definition``: the piecewise polynomial (durations,
   coefficients, via knots) and the limits in SI units, so ``planner replay
@@ -25,7 +31,9 @@ What a recording holds (timeline ``time``, in seconds):
 Names (task, joints) are labels: each is one escaped entity-path part, whatever
 characters it holds, and is read back from the definition, never from a path.
 
-The default blueprint shows the 3D view beside the four profile plots.
+The default blueprint shows the 3D view above the summary, beside the four profile plots (units in
+their names, the legend on the position plot only); the 3D view's eye frames the whole robot over
+the motion, the tool path and the waypoints (``framing_eye``).
 """
 
 from __future__ import annotations
@@ -45,7 +53,7 @@ import numpy as np
 
 from .errors import InputError, PlannerError, RecordingError, shown
 from .kinematics import kinematic_figures
-from .limits import QUANTITIES, JointLimits
+from .limits import DEGREE_UNITS, QUANTITIES, JointLimits
 from .splines import PiecewisePolynomial
 
 APPLICATION_ID = "planner"
@@ -55,6 +63,7 @@ _LIMIT_FIELDS = ("lower", "upper", *QUANTITIES)
 _SAMPLES = "/trajectory/samples"
 _DEFINITION = "/trajectory/definition"
 _END = "/trajectory/end"
+_SUMMARY = "/summary"
 _SCALARS = "Scalars:scalars"
 #: Rerun keeps times in whole nanoseconds, rounded: a recorded time is within this of the planner's [ns].
 _TIME_QUANTUM_NS = 1.0
@@ -82,6 +91,91 @@ def end_marker(times: np.ndarray, rate_hz: float) -> dict:
             "time_span_s": [float(times[0]), float(times[-1])]}
 
 
+#: One colour per joint (matplotlib's default cycle, as in ``profiles.png``), the same in every plot.
+JOINT_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
+                 "#bcbd22", "#17becf")
+#: Dashes per limit line: the limits are drawn dashed (a line broken by gaps), thin, in the joint's colour.
+LIMIT_DASHES = 60
+#: Waypoints closer than this [m] share one label ("waypoints 0, 2").
+COINCIDENT_M = 1e-3
+_TOOL_PATH_COLOUR = (255, 170, 0)
+_TOOL_COLOUR = (255, 235, 90)
+_WAYPOINT_COLOUR = (235, 235, 235)
+_INSERTED_COLOUR = (90, 160, 255)
+
+
+def joint_colour(j: int) -> tuple[int, int, int]:
+    """Joint ``j``'s colour as RGB."""
+    code = JOINT_COLOURS[j % len(JOINT_COLOURS)]
+    return tuple(int(code[k:k + 2], 16) for k in (1, 3, 5))
+
+
+def _dashed(value: float, total_time: float) -> tuple[np.ndarray, np.ndarray]:
+    """Times and values of a horizontal dashed line at ``value`` over [0, total_time]: NaN breaks the line."""
+    period = total_time / LIMIT_DASHES
+    starts = np.arange(LIMIT_DASHES) * period
+    times = np.stack([starts, starts + 0.6 * period, starts + 0.8 * period], axis=1).ravel()
+    values = np.tile([value, value, np.nan], LIMIT_DASHES)
+    return np.append(times, total_time), np.append(values, value)
+
+
+def _position_range(positions: np.ndarray, limits: JointLimits) -> tuple[float, float]:
+    """The position plot's range [deg]: the motion with a margin, and the limits near it (far ones would
+    squash the curves: a UR5's +-360 deg around a motion of +-90 deg)."""
+    low, high = float(np.rad2deg(positions.min())), float(np.rad2deg(positions.max()))
+    span = max(high - low, 10.0)
+    low, high = low - 0.12 * span, high + 0.12 * span
+    bounds = np.rad2deg(np.concatenate([limits.lower, limits.upper]))
+    near = bounds[np.isfinite(bounds) & (bounds > low - 0.4 * span) & (bounds < high + 0.4 * span)]
+    if near.size:
+        low, high = min(low, near.min() - 0.05 * span), max(high, near.max() + 0.05 * span)
+    return low, high
+
+
+def _symmetric_range(values: np.ndarray, magnitudes: np.ndarray) -> tuple[float, float]:
+    """A derivative plot's range [deg]: +-(the largest value or limit, with a margin), widened to the next power
+    of ten when just short of it, so that the plot's power-of-ten ticks label more than its zero line."""
+    finite = magnitudes[np.isfinite(magnitudes)]
+    top = 1.08 * float(np.rad2deg(max(np.abs(values).max(), finite.max() if finite.size else 0.0)))
+    if top <= 0:
+        return -1.0, 1.0
+    decade = 10.0 ** math.floor(math.log10(top))
+    if top > 5 * decade:
+        top = max(top, 10.4 * decade)
+    return -top, top
+
+
+def plan_summary(result) -> str:
+    """The markdown text of the summary panel: task, robot, family, optimizer, total time, the largest
+    constraint ratio of each quantity (and its joint), feasibility."""
+    figures = kinematic_figures(result.trajectory)
+    ratios = np.nan_to_num(figures.ratios(result.limits))
+    names = result.joint_names
+    robot = getattr(result, "robot", None)
+    feasible = bool(result.optimization.feasible)
+    largest = [int(np.argmax(ratios[d])) for d in range(len(QUANTITIES))]
+    return "\n".join([
+        f"### {_markdown_text(result.task.name)}: {'feasible' if feasible else 'NOT feasible (a limit is exceeded)'}",
+        "",
+        f"**robot** {_markdown_text(robot.name) if robot is not None else 'none (joint space)'} · "
+        f"**family** {_markdown_text(result.task.family)} · "
+        f"**optimizer** {_markdown_text(result.optimization.algorithm)}"
+        f" · **total time** {result.trajectory.total_time:.4f} s",
+        "",
+        "| largest ratio | " + " | ".join(QUANTITIES) + " |",
+        "|---|" + "---|" * len(QUANTITIES),
+        "| max / limit | " + " | ".join(f"{ratios[d, j]:.3f}" for d, j in enumerate(largest)) + " |",
+        "| joint | " + " | ".join(_markdown_text(names[j]) for j in largest) + " |",
+        "",
+        "Plots in degrees; dashed lines: each joint's limits, in its colour.",
+    ])
+
+
+def _markdown_text(text: str) -> str:
+    """``text`` shown as itself in markdown (no emphasis, links or table breaks)."""
+    return "".join("\\" + c if c in "\\`*_{}[]()#+-.!|<>~$" else c for c in str(text)).replace("\n", " ")
+
+
 def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None:
     """Write ``result`` (a ``PlanResult``) as a Rerun recording at ``path`` (flushed and closed)."""
     import rerun as rr
@@ -102,37 +196,53 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
     definition = trajectory_definition(trajectory, result.limits, names)
     rec.log(_DEFINITION, rr.AnyValues(planner_definition=json.dumps(definition)), static=True)
     rec.send_columns(_SAMPLES, indexes=time_index, columns=rr.Scalars.columns(scalars=values[0]))
+    rec.log(_SUMMARY, rr.TextDocument(plan_summary(result), media_type=rr.MediaType.MARKDOWN), static=True)
 
+    # Each joint's series carries its name and colour in every plot; its limits and via-points share both,
+    # so the legend holds one entry per joint (entries of one name are merged) and never lists the limits.
     bounds = [(result.limits.lower, result.limits.upper)] + [(-m, m) for m in result.limits.magnitudes]
-    ends = [rr.TimeColumn("time", duration=[0.0, trajectory.total_time])]
     for k, profile in enumerate(_PROFILES):
         for j, name in enumerate(names):
-            rec.send_columns(_entity("profiles", profile, name), indexes=time_index,
+            colour = joint_colour(j)
+            entity = _entity("profiles", profile, name)
+            rec.log(entity, rr.SeriesLines(names=name, colors=[colour], widths=1.5), static=True)
+            rec.send_columns(entity, indexes=time_index,
                              columns=rr.Scalars.columns(scalars=np.rad2deg(values[k, :, j])))
             for side, bound in zip(("lower", "upper"), (bounds[k][0][j], bounds[k][1][j])):
                 if np.isfinite(bound):
                     entity = _entity("profiles", profile, "limits", name, side)
-                    rec.log(entity, rr.SeriesLines(names=f"{name} {side} limit", widths=1.0), static=True)
-                    rec.send_columns(entity, indexes=ends, columns=rr.Scalars.columns(scalars=[np.rad2deg(bound)] * 2))
+                    rec.log(entity, rr.SeriesLines(names=name, colors=[colour], widths=0.75), static=True)
+                    dash_times, dash_values = _dashed(float(np.rad2deg(bound)), trajectory.total_time)
+                    rec.send_columns(entity, indexes=[rr.TimeColumn("time", duration=dash_times)],
+                                     columns=rr.Scalars.columns(scalars=dash_values))
     via_index = [rr.TimeColumn("time", duration=trajectory.via_times)]
     via_positions = trajectory.evaluate(trajectory.via_times)
     for j, name in enumerate(names):
         entity = _entity("profiles", "position", "via_points", name)
-        rec.log(entity, rr.SeriesPoints(names=f"{name} via-points", marker_sizes=4.0), static=True)
+        rec.log(entity, rr.SeriesPoints(names=name, colors=[joint_colour(j)], marker_sizes=3.0), static=True)
         rec.send_columns(entity, indexes=via_index, columns=rr.Scalars.columns(scalars=np.rad2deg(via_positions[:, j])))
 
-    views = []
+    plots = [rrb.TimeSeriesView(origin=f"/profiles/{p}", name=f"{p} [{unit}]",
+                                plot_legend=rrb.PlotLegend(corner="LeftTop", visible=k == 0),
+                                axis_y=rrb.ScalarAxis(range=_position_range(values[0], result.limits) if k == 0
+                                                      else _symmetric_range(values[k], result.limits.magnitudes[k - 1])))
+             for k, (p, unit) in enumerate(zip(_PROFILES, DEGREE_UNITS))]
+    summary = rrb.TextDocumentView(origin=_SUMMARY, name="summary")
     if result.robot is not None:
-        _log_robot(rec, result, times, values[0])
-        views.append(rrb.Spatial3DView(origin="/", name="robot", contents=[  # visual geometry only
-            "/robot/**", "/scene/**", "- /robot/**/collision_geometries/**"]))
-    plots = [rrb.TimeSeriesView(origin=f"/profiles/{p}", name=p) for p in _PROFILES]
-    rec.send_blueprint(rrb.Blueprint(rrb.Horizontal(*views, rrb.Vertical(*plots)) if views else rrb.Vertical(*plots),
-                                     collapse_panels=True))
+        eye = _log_robot(rec, result, times, values[0])
+        robot_view = rrb.Spatial3DView(origin="/", name="robot", contents=[  # visual geometry only
+            "/robot/**", "/scene/**", "- /robot/**/collision_geometries/**"], eye_controls=eye)
+        layout = rrb.Horizontal(rrb.Vertical(robot_view, summary, row_shares=[3, 1]), rrb.Vertical(*plots),
+                                column_shares=[1, 1])
+    else:
+        layout = rrb.Horizontal(summary, rrb.Vertical(*plots), column_shares=[1, 2])
+    rec.send_blueprint(rrb.Blueprint(layout, collapse_panels=True))
     rec.flush()  # everything above is in the file before the end marker
     rec.log(_END, rr.AnyValues(planner_end=json.dumps(end_marker(times, rate_hz))), static=True)
     rec.flush()
     rec.disconnect()
+
+
 @contextmanager
 def _ros_package_path(package_dirs):
     """``ROS_PACKAGE_PATH`` extended, for the block, so that Rerun's URDF importer resolves the
@@ -152,7 +262,8 @@ def _ros_package_path(package_dirs):
                 os.environ["ROS_PACKAGE_PATH"] = previous
 
 
-def _log_robot(rec, result, times: np.ndarray, positions: np.ndarray) -> None:
+def _log_robot(rec, result, times: np.ndarray, positions: np.ndarray):
+    """Log the robot, animated, and the scene around it; returns the 3D view's eye, framing them all."""
     import rerun as rr
     import rerun.urdf as rru
 
@@ -174,28 +285,153 @@ def _log_robot(rec, result, times: np.ndarray, positions: np.ndarray) -> None:
                              columns=joint.compute_transform_columns(positions[:, planned[joint.name]], clamp=False))
         else:
             rec.log(entity, joint.compute_transform(0.0, clamp=True), static=True)
-    root = tree.root_link().name
+    root = rr.CoordinateFrame(tree.root_link().name)
     tool = np.array([robot.forward_kinematics(q).translation for q in positions])
-    rec.log("scene/tool_path", rr.LineStrips3D([tool], colors=[[255, 170, 0]], radii=0.003),
-            rr.CoordinateFrame(root), static=True)
+    rec.log("scene/tool_path", rr.LineStrips3D([tool], colors=[_TOOL_PATH_COLOUR], radii=0.003), root, static=True)
+    rec.log("scene/tool", rr.Points3D.from_fields(colors=[_TOOL_COLOUR], radii=0.018), root, static=True)
+    rec.send_columns("scene/tool", indexes=time_index, columns=rr.Points3D.columns(positions=tool))
+
     waypoints = result.waypoint_via
     poses = [robot.forward_kinematics(q) for q in result.via_points[waypoints]]
-    origins = np.repeat([p.translation for p in poses], 3, axis=0)
+    origins = np.array([p.translation for p in poses])
     vectors = np.concatenate([0.06 * p.rotation.T for p in poses])
-    labels = [f"waypoint {i}" + (f" (IK solution {s.chosen + 1} of {s.solutions})" if result.ik else "")
-              for i, s in enumerate(result.ik or [None] * len(poses))]
-    rec.log("scene/waypoints", rr.Arrows3D(origins=origins, vectors=vectors,
+    rec.log("scene/waypoints", rr.Arrows3D(origins=np.repeat(origins, 3, axis=0), vectors=vectors,
                                            colors=[[230, 40, 40], [40, 200, 40], [40, 90, 230]] * len(poses),
-                                           labels=[text for label in labels for text in (label, "", "")]),
-            rr.CoordinateFrame(root), static=True)
+                                           radii=0.004), root, static=True)
+    groups = coincident_groups(origins, COINCIDENT_M)
+    labels = [_waypoint_label(group, result.ik) for group in groups]
+    rec.log("scene/waypoint_labels", rr.Points3D([origins[g[0]] for g in groups], colors=[_WAYPOINT_COLOUR],
+                                                 radii=0.008, labels=labels, show_labels=True), root, static=True)
+    inserted_points = np.empty((0, 3))
     if result.path is not None:
-        rec.log("scene/straight_segments", rr.LineStrips3D([[p.translation for p in poses]], colors=[[150, 150, 150]],
-                                                           radii=0.0015), rr.CoordinateFrame(root), static=True)
+        rec.log("scene/straight_segments", rr.LineStrips3D([origins], colors=[[150, 150, 150]], radii=0.0015),
+                root, static=True)
         inserted = np.setdiff1d(np.arange(len(result.via_points)), waypoints)
         if inserted.size:
-            points = [robot.forward_kinematics(q).translation for q in result.via_points[inserted]]
-            rec.log("scene/inserted_poses", rr.Points3D(points, colors=[[120, 120, 255]], radii=0.004),
-                    rr.CoordinateFrame(root), static=True)
+            inserted_points = np.array([robot.forward_kinematics(q).translation for q in result.via_points[inserted]])
+            rec.log("scene/inserted_poses", rr.Points3D(inserted_points, colors=[_INSERTED_COLOUR], radii=0.005,
+                                                        show_labels=False), root, static=True)
+    body = _robot_points(robot, positions)
+    return framing_eye(np.concatenate([tool, origins, inserted_points, body, np.zeros((1, 3))]), tool, origins)
+
+
+def coincident_groups(points: np.ndarray, tolerance: float) -> list[list[int]]:
+    """Indices of ``points`` grouped where they lie within ``tolerance`` of a group's first point, in order."""
+    groups: list[list[int]] = []
+    for i, point in enumerate(points):
+        for group in groups:
+            if np.linalg.norm(points[group[0]] - point) <= tolerance:
+                group.append(i)
+                break
+        else:
+            groups.append([i])
+    return groups
+
+
+def _waypoint_label(group: list[int], ik) -> str:
+    """The label of coincident waypoints ``group``: "waypoint 1 (IK 3/8)", "waypoints 0, 2 (...)"."""
+    text = ("waypoint " if len(group) == 1 else "waypoints ") + ", ".join(str(i) for i in group)
+    if ik:
+        chosen = {(ik[i].chosen + 1, ik[i].solutions) for i in group}
+        if len(chosen) == 1:
+            (k, n), = chosen
+            text += f" (IK {k}/{n})"
+        else:
+            text += " (IK " + ", ".join(f"{ik[i].chosen + 1}/{ik[i].solutions}" for i in group) + ")"
+    return text
+
+
+def _robot_points(robot, positions: np.ndarray, count: int = 24) -> np.ndarray:
+    """Where the arm's bodies go: around the centre of each link's visual geometry, as far as it reaches,
+    at ``count`` configurations along ``positions``."""
+    import pinocchio as pin
+
+    visuals = _link_visuals(robot.urdf_path)
+    bodies = [(f, visuals.get(frame.name, [(np.zeros(3), _LINK_REACH)])) for f, frame in enumerate(robot.model.frames)
+              if frame.type == pin.FrameType.BODY]
+    directions = np.concatenate([np.zeros((1, 3)), np.eye(3), -np.eye(3)])
+    points = []
+    for q in positions[np.linspace(0, len(positions) - 1, min(count, len(positions))).astype(int)]:
+        pin.framesForwardKinematics(robot.model, robot.data, np.asarray(q, dtype=float))
+        for f, shapes in bodies:
+            placement = robot.data.oMf[f]
+            points += [placement.rotation @ centre + placement.translation + size * directions
+                       for centre, size in shapes]
+    return np.concatenate(points) if points else np.zeros((0, 3))
+
+
+def _link_visuals(urdf_path) -> dict[str, list[tuple[np.ndarray, float]]]:
+    """Each link's visual shapes as (centre in the link's frame [m], half their size [m]), from the URDF;
+    meshes count as ``_LINK_REACH`` around their origin."""
+    import xml.etree.ElementTree as ElementTree
+
+    visuals: dict[str, list[tuple[np.ndarray, float]]] = {}
+    try:
+        for link in ElementTree.parse(urdf_path).getroot().iter("link"):
+            for visual in link.iter("visual"):
+                origin = visual.find("origin")
+                centre = np.fromstring(origin.get("xyz", "0 0 0"), sep=" ") if origin is not None else np.zeros(3)
+                size = _LINK_REACH
+                geometry = visual.find("geometry")
+                for shape in geometry if geometry is not None else ():
+                    if shape.tag == "box":
+                        size = float(np.linalg.norm(np.fromstring(shape.get("size", ""), sep=" "))) / 2
+                    elif shape.tag == "cylinder":
+                        size = math.hypot(float(shape.get("radius", 0)), float(shape.get("length", 0)) / 2)
+                    elif shape.tag == "sphere":
+                        size = float(shape.get("radius", 0))
+                if centre.shape == (3,):
+                    visuals.setdefault(link.get("name"), []).append((centre, size))
+    except (OSError, ValueError, ElementTree.ParseError):  # framing is a nicety: link frames alone then
+        return {}
+    return visuals
+
+
+#: The 3D view's vertical field of view [rad] (Rerun's default eye), and the least width / height of the view.
+_FOV_Y = math.radians(55.0)
+_ASPECT = 1.2
+#: Angle kept free at the view's edges [rad].
+_EDGE = math.radians(3.0)
+#: How far a link's body reaches from its frame where the URDF does not say (meshes) [m], about.
+_LINK_REACH = 0.06
+
+
+def framing_eye(points: np.ndarray, tool: np.ndarray, waypoints: np.ndarray):
+    """An orbital eye (``rrb.EyeControls3D``, +Z up) that sees all of ``points``.
+
+    It looks at the centre of their bounding box from the side of the tool path (so the arm does not
+    hide it), across the path's widest horizontal spread turned by 35 degrees (for depth), from 30 degrees
+    above, and just far enough for every point to lie inside the view (less a small edge)."""
+    import rerun.blueprint as rrb
+
+    low, high = points.min(axis=0), points.max(axis=0)
+    centre = (low + high) / 2
+    path = np.concatenate([tool, waypoints])
+    spread = path[:, :2] - path[:, :2].mean(axis=0)
+    if len(spread) > 1 and np.abs(spread).max() > 1e-6:
+        major = np.linalg.svd(spread, full_matrices=False)[2][0]
+        side = np.array([-major[1], major[0]])
+    else:
+        side = np.array([1.0, -1.0]) / math.sqrt(2)
+    towards_path = path.mean(axis=0)[:2] - centre[:2]
+    if side @ towards_path < 0 or (abs(side @ towards_path) < 1e-6 and side @ [1.0, -1.0] < 0):
+        side = -side
+    turn, elevation = math.radians(35.0), math.radians(30.0)
+    side = np.array([side[0] * math.cos(turn) - side[1] * math.sin(turn),
+                     side[0] * math.sin(turn) + side[1] * math.cos(turn)])
+    backwards = np.array([side[0] * math.cos(elevation), side[1] * math.cos(elevation), math.sin(elevation)])
+    up = np.array([0.0, 0.0, 1.0]) - math.sin(elevation) * backwards
+    up /= np.linalg.norm(up)
+    right = np.cross(backwards, up)
+    offsets = points - centre
+    towards_eye = offsets @ backwards
+    half_height = math.tan(_FOV_Y / 2 - _EDGE)
+    half_width = math.tan(math.atan(_ASPECT * math.tan(_FOV_Y / 2)) - _EDGE)
+    distance = float(np.max(towards_eye + np.maximum(np.abs(offsets @ up) / half_height,
+                                                     np.abs(offsets @ right) / half_width)))
+    distance = max(distance, float(np.max(towards_eye)) + 0.05, 0.1)
+    return rrb.EyeControls3D(kind="Orbital", position=centre + distance * backwards, look_target=centre,
+                             eye_up=[0.0, 0.0, 1.0])
 
 
 # ---------------------------------------------------------------------------- reading back

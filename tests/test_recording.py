@@ -492,3 +492,117 @@ def test_example_robot_data_meshes_resolve_without_warnings(tmp_path, capfd):
     meshes = {c.entity_path for c in chunks if "/visual_geometries/" in c.entity_path
               and any("Asset3D" in name for name in c.to_record_batch().schema.names)}
     assert len(meshes) >= 7  # base, shoulder, upper arm, forearm, three wrists
+
+
+# ---------------------------------------------------------------------------- what the viewer shows
+
+
+def static_components(path, content: str) -> dict[str, dict[str, list]]:
+    """The static components of the entities under ``content``: {entity: {component: values}}."""
+    import rerun.chunk as rc
+    found: dict[str, dict[str, list]] = {}
+    for chunk in rc.RrdReader(str(path)).stream().filter(content=content).to_chunks():
+        if chunk.is_static:
+            batch = chunk.to_record_batch()
+            found.setdefault(chunk.entity_path, {}).update(
+                {n.split(":")[-1]: batch.column(n).to_pylist()[0] for n in batch.schema.names if ":" in n})
+    return found
+
+
+def test_each_joint_has_one_colour_and_its_name_in_every_plot(planned):
+    import rerun as rr
+    from planner.recording import JOINT_COLOURS
+    result, out = planned
+    styles = static_components(out / "trajectory.rrd", "/profiles/**")
+    for j, name in enumerate(result.joint_names):
+        rgba = int(JOINT_COLOURS[j % 10][1:] + "ff", 16)
+        entities = [rr.new_entity_path(["profiles", p, name]) for p in ("position", "velocity", "acceleration", "jerk")]
+        entities += [rr.new_entity_path(["profiles", p, "limits", name, side])
+                     for p in ("velocity", "acceleration", "jerk") for side in ("lower", "upper")]
+        entities.append(rr.new_entity_path(["profiles", "position", "via_points", name]))
+        for entity in entities:  # a limit is named as its joint: the legend lists the joint once, never the limit
+            assert styles[entity]["names"] == [name] and styles[entity]["colors"] == [rgba], entity
+    widths = {e: s["widths"][0] for e, s in styles.items() if "widths" in s}
+    limit_widths = [w for e, w in widths.items() if "/limits/" in e]
+    assert max(limit_widths) < min(w for e, w in widths.items() if "/limits/" not in e)
+
+
+def test_limits_are_dashed_lines(planned):
+    """A limit line is broken by gaps (NaN), so it reads as dashed, unlike the joint's own curve."""
+    import rerun as rr
+    import rerun.chunk as rc
+    result, out = planned
+    entity = rr.new_entity_path(["profiles", "jerk", "limits", result.joint_names[0], "upper"])
+    values = [v[0] for c in rc.RrdReader(str(out / "trajectory.rrd")).stream().filter(content=entity).to_chunks()
+              if not c.is_static for v in c.to_record_batch().column("Scalars:scalars").to_pylist()]
+    finite = [v for v in values if v == v]
+    assert len(finite) > 50 and len(values) - len(finite) > 25
+    assert np.allclose(finite, np.rad2deg(result.limits.jerk[0]))
+
+
+def test_summary_panel_says_what_was_planned(planned):
+    result, out = planned
+    summary = static_components(out / "trajectory.rrd", "/summary")["/summary"]
+    text = summary["text"][0] if isinstance(summary["text"], list) else summary["text"]
+    assert summary["media_type"] in ("text/markdown", ["text/markdown"])
+    for part in (result.task.name.replace("_", "\\_"), result.robot.name.replace("_", "\\_"), "hybrid",
+                 result.optimization.algorithm, f"{result.trajectory.total_time:.4f} s", "feasible",
+                 "velocity", "acceleration", "jerk"):
+        assert part in text, part
+
+
+def test_coincident_waypoints_share_one_label_and_the_tool_moves(planned):
+    result, out = planned
+    scene = static_components(out / "trajectory.rrd", "/scene/**")
+    labels = scene["/scene/waypoint_labels"]["labels"]
+    if result.task.name == "ur5_pick_and_place":  # pick and lift, place and lift: the same places
+        assert [label.split(" (")[0] for label in labels] == ["waypoints 0, 2", "waypoint 1", "waypoints 3, 5",
+                                                              "waypoint 4"]
+    else:
+        assert len(labels) == len(result.ik) and labels[0].startswith("waypoint 0 (IK ")
+    import rerun.chunk as rc
+    moving = [c for c in rc.RrdReader(str(out / "trajectory.rrd")).stream().filter(content="/scene/tool").to_chunks()
+              if not c.is_static]
+    assert sum(c.num_rows for c in moving) == len(result.trajectory.sample(result.task.sample_rate_hz)[0])
+
+
+def test_inserted_poses_look_unlike_waypoints(tmp_path):
+    import yaml
+    task = yaml.safe_load((TASKS / "ur5_pick_and_place.yaml").read_text())
+    task["path"] = {"mode": "linear"}
+    result = plan(task)
+    write_recording(result, tmp_path / "linear.rrd")
+    scene = static_components(tmp_path / "linear.rrd", "/scene/**")
+    inserted, waypoints = scene["/scene/inserted_poses"], scene["/scene/waypoint_labels"]
+    assert "labels" not in inserted and inserted["colors"] != waypoints["colors"]
+    assert inserted["radii"][0] < waypoints["radii"][0]
+
+
+def test_the_eye_sees_every_point():
+    from planner.recording import framing_eye
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        points = rng.uniform(-1, 1, (50, 3)) * rng.uniform(0.05, 2, 3)
+        eye = framing_eye(points, points[:30], points[30:35])
+        position, target = (np.array(eye.position.as_arrow_array().to_pylist()[0]),
+                            np.array(eye.look_target.as_arrow_array().to_pylist()[0]))
+        forward = (target - position) / np.linalg.norm(target - position)
+        right = np.cross(forward, [0.0, 0.0, 1.0])
+        right /= np.linalg.norm(right)
+        up = np.cross(right, forward)
+        rays = points - position
+        depth = rays @ forward
+        assert np.all(depth > 0)
+        vertical = np.arctan(np.abs(rays @ up) / depth).max() / np.radians(27.5)  # of half the 55 deg field of view
+        horizontal = np.arctan(np.abs(rays @ right) / depth).max() / np.arctan(1.2 * np.tan(np.radians(27.5)))
+        assert max(vertical, horizontal) < 1 and max(vertical, horizontal) > 0.8  # inside, and filling it
+
+
+@pytest.mark.parametrize("limit_deg, top_deg", [(90.0, 104.0), (60.0, 104.0), (180.0, 194.4), (1200.0, 1296.0)])
+def test_derivative_plots_show_their_limits_and_labelled_ticks(limit_deg, top_deg):
+    """The range holds the limits with a margin, and reaches the next power of ten when just short of it
+    (the plots label power-of-ten ticks only: +-95 would show a lone 0)."""
+    from planner.recording import _symmetric_range
+    values = np.deg2rad(np.array([[0.5 * limit_deg, -0.2 * limit_deg]]))
+    low, high = _symmetric_range(values, np.deg2rad([limit_deg, limit_deg / 2]))
+    assert low == -high and high == pytest.approx(top_deg)

@@ -1,0 +1,169 @@
+"""Screenshots of a recording (``planner replay FILE --screenshot OUT.png``), rendered by Rerun's headless viewer.
+
+The viewer (the ``rerun`` program of the ``rerun-sdk`` package) runs without a window but still needs a
+graphics adapter: a GPU with a Vulkan driver, or Mesa's software one (Debian/Ubuntu:
+``apt-get install mesa-vulkan-drivers``). Without one it cannot start, and ``render_screenshot``
+says so in one line and writes nothing.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from .errors import PlannerError, one_line
+
+#: What to install where the viewer finds no graphics adapter.
+ADAPTER_HINT = ("install a Vulkan driver (Debian/Ubuntu: apt-get install mesa-vulkan-drivers, a software "
+                "renderer) or run on a machine with a GPU")
+#: The viewer's screen [logical points]: the whole viewer is captured at this size.
+WINDOW_SIZE = "1920x1080"
+#: Most time the viewer may take to start and answer [s].
+STARTUP_S = 30.0
+#: Least time between the viewer's start and the screenshot [s]: its start-up notice has faded by then,
+#: and the meshes are drawn.
+SETTLE_S = 4.0
+#: Most time the recording may take to load [s].
+LOAD_S = 30.0
+
+
+class ScreenshotError(PlannerError):
+    """The headless viewer cannot render: no ``rerun`` program, no graphics adapter, or it failed."""
+
+    exit_code = 2
+
+
+def time_argument(text: str) -> float:
+    """A ``--time`` argument: a finite number of seconds."""
+    import argparse
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number of seconds, got {text!r}") from None
+    if value != value or abs(value) == float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a finite number of seconds, got {text!r}")
+    return value
+
+
+def rerun_executable() -> str | None:
+    """The ``rerun`` program: the one beside this Python (its virtual environment's), else the first on PATH."""
+    beside = Path(sys.executable).parent / ("rerun.exe" if os.name == "nt" else "rerun")
+    if beside.is_file() and os.access(beside, os.X_OK):
+        return str(beside)
+    return shutil.which("rerun")
+
+
+def _free_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def _failure(code: int | None, log) -> ScreenshotError:
+    """Why the viewer stopped (or never answered), from its exit ``code`` and its output ``log``."""
+    log.seek(0)
+    text = log.read().decode(errors="replace")
+    lowered = text.lower()
+    if any(sign in lowered for sign in ("graphics adapter", "render context", "render state", "adapter was found",
+                                        "no suitable adapter", "failed to create wgpu")):
+        return ScreenshotError(f"no graphics adapter for Rerun's headless viewer: {ADAPTER_HINT}")
+    said = [line.strip() for line in text.splitlines() if "panicked" in line or "error" in line.lower()]
+    said = [line for line in said if "XDG_RUNTIME_DIR" not in line]
+    reason = f" ({one_line(said[-1], 300)})" if said else ""
+    what = f"exited with code {code}" if code is not None else f"did not answer within {STARTUP_S:g} s"
+    return ScreenshotError(f"Rerun's headless viewer {what}{reason}; it needs a graphics adapter: {ADAPTER_HINT}")
+
+
+def _stop(viewer: subprocess.Popen) -> None:
+    """End the viewer we started: its process group (the ``rerun`` launcher and the viewer it runs)."""
+    if viewer.poll() is None:
+        try:
+            os.killpg(viewer.pid, signal.SIGTERM) if os.name == "posix" else viewer.terminate()
+            viewer.wait(timeout=5)
+        except (ProcessLookupError, subprocess.TimeoutExpired):
+            try:
+                os.killpg(viewer.pid, signal.SIGKILL) if os.name == "posix" else viewer.kill()
+            except ProcessLookupError:
+                pass
+    viewer.wait()
+
+
+def render_screenshot(recording, out: Path, time_s: float) -> None:
+    """Render the recording ``recording`` at ``time_s`` [s] in a headless viewer and write the PNG to ``out``
+    (a path the caller stages: written only once the viewer has painted).
+
+    Raises:
+        ScreenshotError: no ``rerun`` program, no graphics adapter, or the viewer failed or timed out.
+    """
+    from rerun.experimental import ViewerClient
+
+    executable = rerun_executable()
+    if executable is None:
+        raise ScreenshotError("no `rerun` program to render with: install the rerun-sdk package "
+                              "(pip install rerun-sdk) in this environment, or put its `rerun` on PATH")
+    port = _free_port()
+    command = [executable, "--headless", "--port", str(port), "--hide-welcome-screen", "--window-size", WINDOW_SIZE]
+    with tempfile.TemporaryFile() as log:
+        started = time.monotonic()
+        try:
+            viewer = subprocess.Popen(command, stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT,
+                                      env={**os.environ, "RERUN_APP_ONLY": "true"},
+                                      start_new_session=os.name == "posix")
+        except OSError as exc:
+            raise ScreenshotError(f"cannot start Rerun's headless viewer {executable}: {exc}") from None
+        try:
+            client = _connect(ViewerClient, viewer, port, log, started)
+            try:
+                client.open(str(Path(recording).resolve()))
+                _wait_loaded(client, viewer, log)
+                client.set_time("time", duration=time_s, play_state="paused")
+                time.sleep(max(0.0, started + SETTLE_S - time.monotonic()))
+                png = client.take_screenshot()
+            except Exception:
+                if viewer.poll() is not None:
+                    raise _failure(viewer.returncode, log) from None
+                raise
+            if not png.startswith(b"\x89PNG"):
+                raise ScreenshotError("Rerun's headless viewer returned no PNG image")
+            Path(out).write_bytes(png)
+        finally:
+            _stop(viewer)
+
+
+def _connect(client_class, viewer: subprocess.Popen, port: int, log, started: float):
+    """A client of the viewer once it answers; the viewer's failure if it stops first."""
+    while True:
+        if viewer.poll() is not None:
+            raise _failure(viewer.returncode, log)
+        try:
+            client = client_class(f"rerun+http://127.0.0.1:{port}/proxy")
+            client.get_state()
+            time.sleep(0.3)  # it answers before drawing its first frame, where a missing adapter shows
+            if viewer.poll() is None:
+                client.get_state()
+                return client
+        except Exception:  # not listening yet
+            pass
+        if time.monotonic() - started > STARTUP_S:
+            raise _failure(None, log)
+        time.sleep(0.2)
+
+
+def _wait_loaded(client, viewer: subprocess.Popen, log) -> None:
+    deadline = time.monotonic() + LOAD_S
+    while True:
+        state = client.get_state()
+        if not state.loading and state.recordings and state.recordings[0].timelines:
+            return
+        if viewer.poll() is not None:
+            raise _failure(viewer.returncode, log)
+        if time.monotonic() > deadline:
+            raise ScreenshotError(f"Rerun's headless viewer did not load the recording within {LOAD_S:g} s")
+        time.sleep(0.2)

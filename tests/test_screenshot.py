@@ -1,0 +1,103 @@
+"""``planner replay FILE --screenshot OUT.png [--time T]``: Rerun's headless viewer renders the recording.
+
+The rendering test needs a graphics adapter (a GPU, or Mesa's software Vulkan driver: apt-get install
+mesa-vulkan-drivers); where there is none it is skipped, saying why. The failure paths run everywhere.
+"""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from planner.cli import main
+from planner.pipeline import plan
+from planner.recording import write_recording
+
+ROOT = Path(__file__).resolve().parents[1]
+TASKS = ROOT / "scripts" / "tasks"
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory):
+    path = tmp_path_factory.mktemp("screenshot") / "ur5.rrd"
+    write_recording(plan(TASKS / "ur5_pick_and_place.yaml"), path)
+    return path
+
+
+def leftovers(folder: Path, *keep: Path) -> list[str]:
+    return sorted(p.name for p in folder.iterdir() if p not in keep)
+
+
+def test_a_screenshot_shows_the_robot_and_drawn_curves(recording, tmp_path, capsys):
+    from PIL import Image
+
+    out = tmp_path / "shots" / "ur5.png"
+    code = main(["replay", str(recording), "--screenshot", str(out), "--time", "2"])
+    err = capsys.readouterr().err
+    if code == 2 and ("no graphics adapter" in err or "no `rerun` program" in err):
+        pytest.skip(f"no headless rendering here: {err.strip()}")
+    assert code == 0, err
+    assert leftovers(out.parent) == ["ur5.png"]  # written under a temporary name, then renamed
+    image = np.asarray(Image.open(out).convert("RGB")).astype(int)
+    height, width, _ = image.shape
+    assert (width, height) == (1920, 1080)
+    background = np.median(image.reshape(-1, 3), axis=0)
+    drawn = np.abs(image - background).max(axis=2) > 40
+    assert drawn.mean() > 0.05, "the screenshot is blank"
+    colourful = (image.max(axis=2) - image.min(axis=2)) > 80  # the joints' curves, not grey grid lines or text
+    plots, scene = colourful[60:1040, width // 2 + 40:], drawn[60:780, :width // 2]
+    for k in range(4):  # each of the four profile plots (a quarter of the right half each) holds curves
+        band = plots[k * plots.shape[0] // 4:(k + 1) * plots.shape[0] // 4]
+        assert band.sum() > 2000, f"plot {k} holds no drawn curves"
+        assert band.any(axis=1).mean() > 0.2, f"plot {k} holds only straight lines"  # curves rise and fall
+    assert scene.mean() > 0.05, "the 3D view is empty"
+
+
+def test_without_a_graphics_adapter_one_line_says_what_to_install(recording, tmp_path, monkeypatch, capsys):
+    from planner.screenshot import rerun_executable
+    if rerun_executable() is None:
+        pytest.skip("no `rerun` program here")
+    monkeypatch.setenv("WGPU_BACKEND", "vulkan")  # Vulkan only, and no Vulkan driver: no adapter at all
+    monkeypatch.setenv("VK_ICD_FILENAMES", str(tmp_path / "no-such-driver.json"))
+    monkeypatch.setenv("VK_DRIVER_FILES", str(tmp_path / "no-such-driver.json"))
+    out = tmp_path / "out" / "shot.png"
+    assert main(["replay", str(recording), "--screenshot", str(out)]) == 2
+    captured = capsys.readouterr()
+    assert captured.err.count("\n") == 1 and captured.err.startswith("error: no graphics adapter")
+    assert "mesa-vulkan-drivers" in captured.err
+    assert not out.exists() and (not out.parent.exists() or leftovers(out.parent) == [])
+
+
+def test_without_the_rerun_program_one_line_says_what_to_install(recording, tmp_path, monkeypatch, capsys):
+    import planner.screenshot as screenshot
+    monkeypatch.setattr(screenshot, "rerun_executable", lambda: None)
+    out = tmp_path / "shot.png"
+    assert main(["replay", str(recording), "--screenshot", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "rerun-sdk" in err
+    assert leftovers(tmp_path) == []
+
+
+@pytest.mark.parametrize("arguments, said", [
+    (["--screenshot", "{tmp}/shot.png", "--time", "99"], "outside the recording's 0 to"),
+    (["--screenshot", "{tmp}/shot.png", "--time", "-0.5"], "outside the recording's 0 to"),
+    (["--screenshot", "{tmp}/shot.png", "--time", "nan"], "finite number of seconds"),
+    (["--time", "1"], "--time says when to take a --screenshot"),
+    (["--screenshot", "{recording}"], "is the recording itself"),
+])
+def test_bad_screenshot_arguments_fail_before_rendering(arguments, said, recording, tmp_path, monkeypatch, capsys):
+    import planner.screenshot as screenshot
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("a viewer was started")
+    monkeypatch.setattr(screenshot, "render_screenshot", refuse)
+    before = recording.read_bytes()
+    arguments = [a.format(tmp=tmp_path, recording=recording) for a in arguments]
+    try:
+        code = main(["replay", str(recording), *arguments])
+    except SystemExit as usage_error:  # argparse: a malformed option value
+        code = usage_error.code
+    assert code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and said in err
+    assert leftovers(tmp_path) == [] and recording.read_bytes() == before
