@@ -159,7 +159,7 @@ class PlanResult:
         write_json(folder / "coefficients.json", coefficients_document(self.trajectory, self.joint_names))
         plot_profiles(self.trajectory, self.limits, folder / "profiles.png",
                       title=f"{self.task.name}: {self.task.family}, T = {self.trajectory.total_time:.3f} s",
-                      joint_names=self.joint_names)
+                      joint_names=self.joint_names, waypoint_via=self.waypoint_via)
         write_recording(self, folder / "trajectory.rrd")
         self.timings_s["outputs"] = time.perf_counter() - start
         write_json(folder / "summary.json", self.summary(), digits=SUMMARY_DIGITS)

@@ -44,7 +44,7 @@ def test_every_joint_is_in_the_legend(tmp_path, monkeypatch):
     monkeypatch.setattr(matplotlib.axes.Axes, "legend", spy)
     names = ["_base", "$q$", "关节"]
     plot_profiles(trajectory_for(3), JointLimits.create(3), tmp_path / "p.png", joint_names=names)
-    assert [text.get_text() for text in legends[0].get_texts()] == names
+    assert [text.get_text() for text in legends[0].get_texts()][:3] == names  # then the keys to the lines
 
 
 def test_markdown_table_cells():
