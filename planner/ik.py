@@ -404,7 +404,7 @@ def _optimal_branches(robot, poses, hints, start, limits, rng, accept) -> list[I
         if not found:
             raise IKError(f"waypoint {index}: pose not reached within the joint ranges after {attempts} "
                           f"attempt{'s' * (attempts > 1)}; best residual {best.position_error:.3g} m, "
-                          f"{best.orientation_error:.3g} rad", waypoint=index, residual=best.residual)
+                          f"{np.rad2deg(best.orientation_error):.3g} deg", waypoint=index, residual=best.residual)
         variants = [s.q[None] if hint is not None else turn_variants(robot, s.q, limits) for s in found]
         per_pose.append((found, attempts))
         candidates.append(np.concatenate(variants))
@@ -447,7 +447,7 @@ def _continuous_branch(robot, poses, hints, start, limits, rng, restarts, accept
                     break
         if not found:
             raise IKError(f"waypoint {index}: pose not reached within the joint ranges after {attempts} attempts; "
-                          f"best residual {best.position_error:.3g} m, {best.orientation_error:.3g} rad",
+                          f"best residual {best.position_error:.3g} m, {np.rad2deg(best.orientation_error):.3g} deg",
                           waypoint=index, residual=best.residual)
         distinct = [s for i, s in enumerate(found) if _distinct(robot, s.q, found[:i])]
         chosen = min(distinct, key=lambda s: np.linalg.norm(_nearest_turn(robot, s.q, previous) - previous))
