@@ -15,6 +15,7 @@ import sys
 import threading
 from pathlib import Path
 
+from . import interrupts
 from .errors import OutputError, PlannerError, one_line
 from .progress import TerminalProgress
 
@@ -23,8 +24,9 @@ class Terminated(BaseException):
     """SIGTERM (``kill``, ``timeout``, ``docker stop``), raised so that every cleanup runs."""
 
 
-def _raise_terminated(signum, frame):
-    raise Terminated()
+def _interrupt(signum, frame):
+    """Ctrl-C or SIGTERM: raise it, and record it where a library that swallows it is checked."""
+    interrupts.request(KeyboardInterrupt() if signum == signal.SIGINT else Terminated())
 
 
 def _plan(args) -> int:
@@ -35,6 +37,7 @@ def _plan(args) -> int:
         result = plan(args.task, progress=progress)
         progress.note(f"writing the outputs to {args.out}")
         result.write(staging)
+    interrupts.finish()  # published: a signal from now on changes nothing
     out = Path(args.out)
     if not args.quiet:
         timing = ", ".join(f"{k} {v:.3f} s" for k, v in result.timings_s.items())
@@ -54,6 +57,7 @@ def _reproduce(args) -> int:
     with output_folder(args.out, force=args.force) as staging:
         runs = run_all(quick=args.quick, seed=args.seed, progress=progress)
         write_report(runs, staging)
+    interrupts.finish()
     out = Path(args.out)
     if not args.quiet:
         print((out / "reproduction.md").read_text())
@@ -168,17 +172,24 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv=None) -> int:
-    """Run the command line; returns the exit code (see the module docstring)."""
+def main(argv=None, *, keep_signal_handlers: bool = False) -> int:
+    """Run the command line; returns the exit code (see the module docstring).
+
+    Ctrl-C and SIGTERM are handled (``_interrupt``) while it runs; the previous handlers come
+    back at the end unless ``keep_signal_handlers`` (the installed command keeps them until the
+    process exits, so a late signal cannot kill it without a word).
+    """
+    interrupts.reset()
     in_main_thread = threading.current_thread() is threading.main_thread()  # signals can be set only there
-    previous = signal.signal(signal.SIGTERM, _raise_terminated) if in_main_thread else None
+    previous = {number: signal.signal(number, _interrupt) for number in (signal.SIGINT, signal.SIGTERM)} \
+        if in_main_thread else {}
     debug = False
     try:
         args = build_parser().parse_args(argv)
         debug = args.debug
         return args.run(args)
     except PlannerError as exc:
-        print(f"error: {exc}", file=sys.stderr)
+        print(f"error: {_printable(str(exc))}", file=sys.stderr)
         return exc.exit_code
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
@@ -189,13 +200,24 @@ def main(argv=None) -> int:
     except Exception as exc:  # one line for the user; --debug for the traceback
         if debug:
             raise
-        print(one_line(f"internal error: {type(exc).__name__}: {exc} (run with --debug for details)"),
+        print(_printable(one_line(f"internal error: {type(exc).__name__}: {exc} (run with --debug for details)")),
               file=sys.stderr)
         return 1
     finally:
-        if in_main_thread:
-            signal.signal(signal.SIGTERM, previous)
+        if not keep_signal_handlers:
+            for number, handler in previous.items():
+                signal.signal(number, handler)
+
+
+def entry() -> None:
+    """The installed ``planner`` command."""
+    sys.exit(main(keep_signal_handlers=True))
+
+
+def _printable(text: str) -> str:
+    """``text`` with control characters (an escape sequence in a path, say) shown as escapes."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    entry()

@@ -42,6 +42,7 @@ from pathlib import Path
 from typing import Iterator
 
 from .errors import OutputError, shown
+from .interrupts import check as check_interrupted
 
 MARKER = ".planner-output"
 _RENAME_EXCHANGE = 2
@@ -226,6 +227,7 @@ def output_folder(path, *, force: bool = False) -> Iterator[Path]:
         staging = base / f".{folder.name}.staging-{secrets.token_hex(4)}"
         os.mkdir(staging, 0o777)  # the umask applies, as to any folder the user makes
         yield staging
+        check_interrupted()  # an interruption a library swallowed must not publish half a run
         written = _write_marker(staging)
         if in_place:
             folder.mkdir(exist_ok=True)

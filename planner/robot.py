@@ -11,11 +11,6 @@ must all be single-axis revolute joints (task values are in degrees).
 from __future__ import annotations
 
 import math
-import os
-import sys
-import tempfile
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -24,6 +19,7 @@ import numpy as np
 import pinocchio as pin
 
 from .errors import RobotError, TaskError, shown
+from .native_output import stderr_captured
 from .limits import JointLimits
 from .yaml_input import read_yaml
 
@@ -92,7 +88,7 @@ class Robot:
         path = Path(path)
         if not path.is_file():  # a device such as /dev/zero would be read without end
             raise RobotError(f"cannot load URDF {path}: not an existing regular file")
-        with _stderr_captured() as parser_log:
+        with stderr_captured() as parser_log:
             try:
                 model = pin.buildModelFromUrdf(str(path))
             except Exception as exc:  # the parser raises RuntimeError, ValueError, OSError, ...
@@ -110,7 +106,7 @@ class Robot:
         from example_robot_data.robots_loader import ROBOTS
         if not isinstance(name, str) or name not in ROBOTS:
             raise RobotError(f"unknown robot {shown(name)}; example-robot-data has: {', '.join(sorted(ROBOTS))}")
-        with _stderr_captured() as loader_log:
+        with stderr_captured() as loader_log:
             try:
                 loader = ROBOTS[name]()
                 model = loader.robot.model
@@ -155,27 +151,6 @@ class Robot:
         limits = JointLimits.create(reduced.nq, lower=lower, upper=upper, velocity=velocity, **extra_limits)
         return cls(name, reduced, reduced.createData(), tool_frame, reduced.getFrameId(tool_frame), limits,
                    Path(urdf_path), package_dirs)
-
-
-@contextmanager
-def _stderr_captured() -> Iterator[list[str]]:
-    """Point file descriptor 2 at a temporary file for the ``with`` block (C++ libraries log there);
-    the list yielded receives what was written, once the block ends. Restored in any case."""
-    sys.stderr.flush()
-    captured: list[str] = []
-    saved = os.dup(2)
-    try:
-        with tempfile.TemporaryFile() as sink:
-            os.dup2(sink.fileno(), 2)
-            try:
-                yield captured
-            finally:
-                sys.stderr.flush()
-                os.dup2(saved, 2)
-                sink.seek(0)
-                captured.append(sink.read(4096).decode("utf-8", "replace"))
-    finally:
-        os.close(saved)
 
 
 def _first_line(text: str) -> str:

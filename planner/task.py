@@ -23,7 +23,7 @@ Schema (version 1)::
 Every single number has the range given in ``RANGES`` (seeds are integers in [0, 2^63),
 ``sample_rate_hz`` at most 100 kHz, every optimizer setting has its own range); a task
 file is UTF-8 (byte-order mark optional) or UTF-16/UTF-32 with a byte-order mark, at
-most ``MAX_FILE_BYTES`` long, nested at most ``MAX_NESTING`` deep, expanding to at most
+most ``yaml_input.MAX_FILE_BYTES`` long, nested at most ``MAX_NESTING`` deep, expanding to at most
 ``MAX_VALUES`` values, with no key twice in a mapping.
 
 Every error is a ``TaskError`` naming the key path, e.g.
@@ -39,14 +39,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from .errors import SHOWN_VALUE_CHARS, TaskError, shown
 from .ik import BRANCH_RULES
 from .splines import FAMILIES
 from .timing import OPTIMIZERS, cuckoo_search
 from .timing.problem import OBJECTIVES
-from .yaml_input import MAX_FILE_BYTES, MAX_NESTING, MAX_VALUES, key_path, read_yaml
+from .yaml_input import key_path, read_yaml
 
 SCHEMA_VERSION = 1
 #: Default shortest segment duration [s]: one period of a 1 kHz controller. Merged repeated

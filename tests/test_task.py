@@ -10,8 +10,8 @@ import pytest
 import yaml
 
 from planner import TaskError, paper
-from planner.task import (MAX_NESTING, MAX_FILE_BYTES, MAX_VALUES, RANGES, _optimizer_parameters, load_task,
-                          parse_task)
+from planner.task import RANGES, _optimizer_parameters, load_task, parse_task
+from planner.yaml_input import MAX_FILE_BYTES, MAX_NESTING, MAX_VALUES
 from planner.timing import OPTIMIZERS
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -51,7 +51,9 @@ from math import factorial
 
 import numpy as np
 
+from ..interrupts import check as check_interrupted
 from ..kinematics import max_abs, segment_extrema
+from ..native_output import stderr_captured
 from .formulations import FORMULATIONS, Scales, SegmentBlock
 from .problem import TimingProblem
 from .result import SearchTracker, StartReport
@@ -172,8 +174,10 @@ class TimingNLP:
             rounds += 1
             program = self._program(certificates)
             extra = self._certificate_start(certificates, coefficients, h)
-            solution = program.solver(x0=np.concatenate((core, extra)), lbx=program.lbx, ubx=program.ubx,
-                                      lbg=program.lbg, ubg=program.ubg)
+            with stderr_captured():  # CasADi's own warnings (an interrupted solve) stay off the terminal
+                solution = program.solver(x0=np.concatenate((core, extra)), lbx=program.lbx, ubx=program.ubx,
+                                          lbg=program.lbg, ubg=program.ubg)
+            check_interrupted()  # IPOPT swallows a Ctrl-C or SIGTERM raised inside it
             stats = program.solver.stats()
             iterations += int(stats.get("iter_count", 0))
             status = str(stats.get("return_status", "unknown"))

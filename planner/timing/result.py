@@ -8,6 +8,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..interrupts import check as check_interrupted
 from .problem import Evaluation, TimingProblem
 
 #: progress(done, total, best_objective) -> None, called once per iteration.
@@ -120,6 +121,7 @@ class SearchTracker:
             self.best_durations = evaluation.durations[i].copy()
 
     def end_iteration(self) -> None:
+        check_interrupted()
         self.history.append(self.best_objective)
         if self._progress is not None:
             self._progress(len(self.history), self._total, self.best_objective)

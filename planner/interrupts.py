@@ -1,0 +1,42 @@
+"""Interruptions (Ctrl-C, SIGTERM) that no library may swallow.
+
+IPOPT, through CasADi, catches the ``KeyboardInterrupt`` a signal handler
+raises inside its callbacks, prints a warning and carries on. So the command
+line's handlers also *record* the interruption here, and the long-running
+loops (after every IPOPT solve, every optimizer iteration, every pipeline
+stage, and just before outputs are published) call ``check``, which raises it
+again. Once the outputs are published the work is done: ``finish`` makes later
+signals change nothing.
+"""
+
+from __future__ import annotations
+
+_pending: BaseException | None = None
+_finished = False
+
+
+def request(interruption: BaseException) -> None:
+    """Record ``interruption`` (an exception instance) unless the work is already finished, then raise it."""
+    global _pending
+    if _finished:
+        return
+    _pending = interruption
+    raise interruption
+
+
+def check() -> None:
+    """Raise the recorded interruption, if any (call it where a swallowed one must surface)."""
+    if _pending is not None and not _finished:
+        raise _pending
+
+
+def finish() -> None:
+    """The outputs are published: ignore interruptions from now on."""
+    global _finished
+    _finished = True
+
+
+def reset() -> None:
+    """Forget any interruption (a new command starts)."""
+    global _pending, _finished
+    _pending, _finished = None, False

@@ -1,0 +1,71 @@
+"""A Ctrl-C or SIGTERM swallowed by a library (IPOPT does) still stops the work and publishes nothing."""
+
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from planner import interrupts, paper
+from planner.outputs import output_folder
+from planner.timing import TimingProblem, optimize
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(autouse=True)
+def fresh():
+    interrupts.reset()
+    yield
+    interrupts.reset()
+
+
+def swallowed(interruption: BaseException) -> None:
+    """What CasADi does with an interruption raised inside IPOPT: catch it and carry on."""
+    try:
+        interrupts.request(interruption)
+    except BaseException:
+        pass
+
+
+@pytest.mark.parametrize("algorithm", ["nlp", "default", "pso"])
+def test_a_swallowed_interruption_stops_the_optimizer(algorithm):
+    problem = TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", paper.paper_limits())
+    swallowed(KeyboardInterrupt())
+    with pytest.raises(KeyboardInterrupt):
+        optimize(problem, algorithm, **({"iterations": 2} if algorithm == "pso" else {}))
+
+
+def test_a_swallowed_interruption_publishes_nothing(tmp_path):
+    class Terminated(BaseException):
+        pass
+    with pytest.raises(Terminated):
+        with output_folder(tmp_path / "out") as staging:
+            (staging / "a.txt").write_text("half of a run")
+            swallowed(Terminated())
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_after_publishing_a_signal_changes_nothing():
+    interrupts.finish()
+    interrupts.request(KeyboardInterrupt())  # ignored: no exception
+    interrupts.check()
+
+
+def test_sigterm_during_the_solver_exits_143_and_writes_nothing(tmp_path):
+    data = yaml.safe_load((ROOT / "scripts" / "tasks" / "puma560_paper_joint.yaml").read_text())
+    data["optimizer"] = {"algorithm": "cuckoo", "nests": 400, "iterations": 1, "refine_starts": 400}  # >4 s of IPOPT
+    (tmp_path / "slow.yaml").write_text(yaml.safe_dump(data))
+    process = subprocess.Popen([sys.executable, "-m", "planner.cli", "plan", str(tmp_path / "slow.yaml"),
+                                "--out", str(tmp_path / "out")], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               text=True)
+    time.sleep(2.0)  # imports take ~0.6 s; then hundreds of IPOPT solves
+    assert process.poll() is None, "the plan finished before it could be interrupted"
+    process.send_signal(signal.SIGTERM)
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 143 and err == "terminated\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["slow.yaml"]
