@@ -10,7 +10,7 @@ from __future__ import annotations
 import importlib
 
 from .errors import (IKError, InfeasibleError, InputError, OutputError, PlannerError, RecordingError, RobotError,
-                     TaskError)
+                     TaskError, ViewerError)
 
 #: public name -> the module that defines it
 _LAZY = {
@@ -23,7 +23,7 @@ _LAZY = {
 __all__ = [
     "FAMILIES", "IKError", "InfeasibleError", "InputError", "JointLimits", "KinematicFigures", "OutputError",
     "PiecewisePolynomial", "PlanResult", "PlannerError", "RecordingError", "Robot", "RobotError", "SplineFamily",
-    "Task", "TaskError", "get_family", "kinematic_figures", "load_task", "make_task", "plan", "pose_entry",
+    "Task", "TaskError", "ViewerError", "get_family", "kinematic_figures", "load_task", "make_task", "plan", "pose_entry",
     "time_scale_factor",
 ]
 

@@ -102,6 +102,13 @@ class OutputError(PlannerError):
     exit_code = 2
 
 
+class ViewerError(PlannerError):
+    """The Rerun viewer cannot be used here: no display for the window, no graphics adapter or
+    ``rerun`` program for a headless screenshot, or a viewer that failed to start."""
+
+    exit_code = 2
+
+
 class RecordingError(PlannerError):
     """A missing, corrupt or foreign Rerun recording."""
 

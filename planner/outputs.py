@@ -50,10 +50,24 @@ _AT_FDCWD = -100
 
 
 def _absolute(path, what: str) -> Path:
-    """``path`` as an absolute path with symbolic links resolved; an empty path is refused."""
-    if path is None or str(path).strip() == "":
+    """``path`` as an absolute path with symbolic links resolved; an empty path is refused.
+
+    Raises:
+        OutputError: an empty path, one that is not text or a path-like, holds a NUL, or cannot be resolved.
+    """
+    if not isinstance(path, (str, os.PathLike)):
+        raise OutputError(f"{what} must be a path (text or path-like), not {type(path).__name__}")
+    text = os.fspath(path)
+    if not isinstance(text, str):
+        raise OutputError(f"{what} must be a path given as text, not {type(text).__name__}")
+    if text.strip() == "":
         raise OutputError(f"{what} is empty (an unset shell variable?); give a path")
-    return Path(os.path.abspath(os.fspath(path))).resolve()
+    if "\0" in text:
+        raise OutputError(f"{what} {shown(text)} holds a NUL character")
+    try:
+        return Path(os.path.abspath(text)).resolve()
+    except (OSError, RuntimeError) as exc:  # a symlink loop, a name too long
+        raise OutputError(f"{what} {shown(text)}: {getattr(exc, 'strerror', None) or exc}") from None
 
 
 def check_writable_location(path: Path, what: str) -> None:
@@ -84,7 +98,14 @@ def _planner_files(folder: Path) -> set[str] | None:
         files = json.loads((folder / MARKER).read_text()).get("files")
     except (OSError, ValueError, AttributeError):
         return None
-    return set(files) if isinstance(files, list) and all(isinstance(f, str) for f in files) else None
+    plain = isinstance(files, list) and all(isinstance(f, str) and _plain_name(f) for f in files)
+    return set(files) if plain else None  # a marker naming anything else is not the planner's
+
+
+def _plain_name(name: str) -> bool:
+    """A file name of a folder's own: no separator, not '.' or '..', not hidden, printable."""
+    return (name not in ("", ".", "..") and "/" not in name and "\\" not in name and not name.startswith(".")
+            and name.isprintable())
 
 
 def check_output_folder(path, *, force: bool = False) -> tuple[Path, bool]:
@@ -98,6 +119,14 @@ def check_output_folder(path, *, force: bool = False) -> tuple[Path, bool]:
             non-empty folder the planner did not write (without ``force``).
     """
     folder = _absolute(path, "output folder")
+    try:
+        return _check_folder(folder, force)
+    except OSError as exc:  # a name too long, an unreadable ancestor
+        raise OutputError(f"output folder {shown(str(folder))}: {exc.strerror or exc}") from None
+
+
+def _check_folder(folder: Path, force: bool) -> tuple[Path, bool]:
+    """``check_output_folder`` for an absolute ``folder``."""
     check_writable_location(folder, "output folder")
     if not folder.exists():
         return folder, False
@@ -215,9 +244,17 @@ def output_folder(path, *, force: bool = False) -> Iterator[Path]:
     """
     folder, in_place = check_output_folder(path, force=force)
     created = [ancestor for ancestor in folder.parents if not ancestor.exists()]  # deepest first
-    folder.parent.mkdir(parents=True, exist_ok=True)
     lock = _Lock(folder)
-    lock.acquire()
+    try:
+        folder.parent.mkdir(parents=True, exist_ok=True)
+        lock.acquire()
+    except OSError as exc:  # /proc, a name too long, a full disk: the path cannot take outputs
+        for ancestor in created:
+            try:
+                ancestor.rmdir()
+            except OSError:
+                break
+        raise OutputError(f"output folder {folder}: cannot write there ({exc.strerror or exc})") from None
     staging, published = None, False
     try:
         for stale in folder.parent.glob(f".{folder.name}.staging-*"):
@@ -225,7 +262,11 @@ def output_folder(path, *, force: bool = False) -> Iterator[Path]:
         folder, in_place = check_output_folder(folder, force=force)  # again, now that we hold the lock
         base = folder if in_place and folder.exists() else folder.parent
         staging = base / f".{folder.name}.staging-{secrets.token_hex(4)}"
-        os.mkdir(staging, 0o777)  # the umask applies, as to any folder the user makes
+        try:
+            os.mkdir(staging, 0o777)  # the umask applies, as to any folder the user makes
+        except OSError as exc:
+            staging = None
+            raise OutputError(f"output folder {folder}: cannot write there ({exc.strerror or exc})") from None
         yield staging
         check_interrupted()  # an interruption a library swallowed must not publish half a run
         written = _write_marker(staging)
@@ -254,8 +295,19 @@ def check_output_file(path) -> Path:
         OutputError: an empty path, a path that is a folder or lies under a file, or an unwritable folder.
     """
     target = _absolute(path, "output file")
+    try:
+        return _check_file(target)
+    except OSError as exc:
+        raise OutputError(f"output file {shown(str(target))}: {exc.strerror or exc}") from None
+
+
+def _check_file(target: Path) -> Path:
+    """``check_output_file`` for an absolute ``target``."""
     if target.is_dir():
         raise OutputError(f"output file {target} is an existing folder; give a file name")
+    if target.exists() and not target.is_file():
+        raise OutputError(f"output file {target} exists and is not a regular file (a device, pipe or socket); "
+                          f"give a file name")
     check_writable_location(target, "output file")
     return target
 

@@ -51,7 +51,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError, PlannerError, RecordingError, shown
+from .errors import InputError, RecordingError, ViewerError, shown
 from .kinematics import kinematic_figures
 from .limits import DEGREE_UNITS, QUANTITIES, JointLimits
 from .splines import PiecewisePolynomial
@@ -727,13 +727,13 @@ def open_in_viewer(path: Path, *, startup_s: float = VIEWER_STARTUP_S) -> None:
     alternatives = (f"check it without a viewer with `planner replay {path} --check`, export its samples with "
                     "--export-csv PATH, or open it on a machine with a display (or under xvfb-run)")
     if not has_display():
-        raise PlannerError(f"no display for the Rerun viewer (neither DISPLAY nor WAYLAND_DISPLAY is set): "
+        raise ViewerError(f"no display for the Rerun viewer (neither DISPLAY nor WAYLAND_DISPLAY is set): "
                            f"{alternatives}")
     with tempfile.TemporaryFile() as log:  # the viewer's output, shown only if it fails at start-up
         try:
             viewer = subprocess.Popen([*VIEWER_COMMAND, str(path)], stdout=log, stderr=subprocess.STDOUT)
         except OSError as exc:
-            raise PlannerError(f"cannot start the Rerun viewer: {exc}") from None
+            raise ViewerError(f"cannot start the Rerun viewer: {exc}") from None
         try:
             code = viewer.wait(timeout=startup_s)
         except subprocess.TimeoutExpired:
@@ -743,4 +743,4 @@ def open_in_viewer(path: Path, *, startup_s: float = VIEWER_STARTUP_S) -> None:
         log.seek(0)
         lines = log.read().decode(errors="replace").strip().splitlines()
         said = f" ({shown(lines[-1].strip(), 300)})" if lines else ""  # its last line says why
-        raise PlannerError(f"the Rerun viewer exited with code {code}{said}; {alternatives}")
+        raise ViewerError(f"the Rerun viewer exited with code {code}{said}; {alternatives}")

@@ -23,6 +23,8 @@ from .native_output import stderr_captured
 from .limits import JointLimits
 from .yaml_input import read_yaml
 
+#: Largest URDF file loaded [bytes]: the parser reads about 1 MB/s of XML.
+MAX_URDF_BYTES = 16 * 2**20
 _LIMIT_FILE_KEYS = {"acceleration_deg_s2": "acceleration", "jerk_deg_s3": "jerk"}
 #: Pinocchio's single-axis revolute joints, the only ones planned (task keys are in degrees).
 _REVOLUTE = ("JointModelRX", "JointModelRY", "JointModelRZ", "JointModelRevoluteUnaligned")
@@ -88,6 +90,9 @@ class Robot:
         path = Path(path)
         if not path.is_file():  # a device such as /dev/zero would be read without end
             raise RobotError(f"cannot load URDF {path}: not an existing regular file")
+        if path.stat().st_size > MAX_URDF_BYTES:
+            raise RobotError(f"cannot load URDF {path}: larger than {MAX_URDF_BYTES >> 20} MiB "
+                             f"(a robot description, its meshes apart, is well under 1 MiB)")
         with stderr_captured() as parser_log:
             try:
                 model = pin.buildModelFromUrdf(str(path))

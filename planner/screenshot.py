@@ -18,7 +18,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from .errors import PlannerError, one_line
+from .errors import ViewerError, one_line
 
 #: What to install where the viewer finds no graphics adapter.
 ADAPTER_HINT = ("install a Vulkan driver (Debian/Ubuntu: apt-get install mesa-vulkan-drivers, a software "
@@ -32,12 +32,6 @@ STARTUP_S = 30.0
 SETTLE_S = 4.0
 #: Most time the recording may take to load [s].
 LOAD_S = 30.0
-
-
-class ScreenshotError(PlannerError):
-    """The headless viewer cannot render: no ``rerun`` program, no graphics adapter, or it failed."""
-
-    exit_code = 2
 
 
 def time_argument(text: str) -> float:
@@ -66,19 +60,19 @@ def _free_port() -> int:
         return probe.getsockname()[1]
 
 
-def _failure(code: int | None, log) -> ScreenshotError:
+def _failure(code: int | None, log) -> ViewerError:
     """Why the viewer stopped (or never answered), from its exit ``code`` and its output ``log``."""
     log.seek(0)
     text = log.read().decode(errors="replace")
     lowered = text.lower()
     if any(sign in lowered for sign in ("graphics adapter", "render context", "render state", "adapter was found",
                                         "no suitable adapter", "failed to create wgpu")):
-        return ScreenshotError(f"no graphics adapter for Rerun's headless viewer: {ADAPTER_HINT}")
+        return ViewerError(f"no graphics adapter for Rerun's headless viewer: {ADAPTER_HINT}")
     said = [line.strip() for line in text.splitlines() if "panicked" in line or "error" in line.lower()]
     said = [line for line in said if "XDG_RUNTIME_DIR" not in line]
     reason = f" ({one_line(said[-1], 300)})" if said else ""
     what = f"exited with code {code}" if code is not None else f"did not answer within {STARTUP_S:g} s"
-    return ScreenshotError(f"Rerun's headless viewer {what}{reason}; it needs a graphics adapter: {ADAPTER_HINT}")
+    return ViewerError(f"Rerun's headless viewer {what}{reason}; it needs a graphics adapter: {ADAPTER_HINT}")
 
 
 def _stop(viewer: subprocess.Popen) -> None:
@@ -100,13 +94,13 @@ def render_screenshot(recording, out: Path, time_s: float) -> None:
     (a path the caller stages: written only once the viewer has painted).
 
     Raises:
-        ScreenshotError: no ``rerun`` program, no graphics adapter, or the viewer failed or timed out.
+        ViewerError: no ``rerun`` program, no graphics adapter, or the viewer failed or timed out.
     """
     from rerun.experimental import ViewerClient
 
     executable = rerun_executable()
     if executable is None:
-        raise ScreenshotError("no `rerun` program to render with: install the rerun-sdk package "
+        raise ViewerError("no `rerun` program to render with: install the rerun-sdk package "
                               "(pip install rerun-sdk) in this environment, or put its `rerun` on PATH")
     port = _free_port()
     command = [executable, "--headless", "--port", str(port), "--hide-welcome-screen", "--window-size", WINDOW_SIZE]
@@ -117,7 +111,7 @@ def render_screenshot(recording, out: Path, time_s: float) -> None:
                                       env={**os.environ, "RERUN_APP_ONLY": "true"},
                                       start_new_session=os.name == "posix")
         except OSError as exc:
-            raise ScreenshotError(f"cannot start Rerun's headless viewer {executable}: {exc}") from None
+            raise ViewerError(f"cannot start Rerun's headless viewer {executable}: {exc}") from None
         try:
             client = _connect(ViewerClient, viewer, port, log, started)
             try:
@@ -131,7 +125,7 @@ def render_screenshot(recording, out: Path, time_s: float) -> None:
                     raise _failure(viewer.returncode, log) from None
                 raise
             if not png.startswith(b"\x89PNG"):
-                raise ScreenshotError("Rerun's headless viewer returned no PNG image")
+                raise ViewerError("Rerun's headless viewer returned no PNG image")
             Path(out).write_bytes(png)
         finally:
             _stop(viewer)
@@ -165,5 +159,5 @@ def _wait_loaded(client, viewer: subprocess.Popen, log) -> None:
         if viewer.poll() is not None:
             raise _failure(viewer.returncode, log)
         if time.monotonic() > deadline:
-            raise ScreenshotError(f"Rerun's headless viewer did not load the recording within {LOAD_S:g} s")
+            raise ViewerError(f"Rerun's headless viewer did not load the recording within {LOAD_S:g} s")
         time.sleep(0.2)

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import inspect
 import math
+import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -48,6 +49,8 @@ from .timing.problem import OBJECTIVES
 from .yaml_input import key_path, read_yaml
 
 SCHEMA_VERSION = 1
+#: Longest task name [characters]: it titles the figure, the recording and the summary.
+MAX_NAME_CHARS = 200
 #: Default shortest segment duration [s]: one period of a 1 kHz controller. Merged repeated
 #: via-points keep their zero-length segment.
 MIN_SEGMENT_S = 1e-3
@@ -95,8 +98,8 @@ RANGES: dict[str, Range | type] = {
     "optimizer.seed": Range(0, MAX_SEED, integer=True),
     "optimizer.bounds_s[0]": Range(0, 86_400, low_open=True),          # h_min [s]: at most a day
     "optimizer.bounds_s[1]": Range(0, 86_400, low_open=True),          # h_max [s]
-    "optimizer.weights[0]": Range(0, low_open=True),                   # K_t [1/s]
-    "optimizer.weights[1]": Range(0),                                  # K_j [s^5/rad^2]
+    "optimizer.weights[0]": Range(1e-6, 1e6),                          # K_t [1/s]
+    "optimizer.weights[1]": Range(0, 1e6),                             # K_j [s^5/rad^2]
     "optimizer.nests": Range(2, _COUNT, integer=True),                 # Cuckoo Search
     "optimizer.iterations": Range(1, 100_000, integer=True),           # Cuckoo Search, PSO, SLSQP
     "optimizer.pa": Range(0, 1),
@@ -310,8 +313,8 @@ def _cartesian_waypoint(value, path: str) -> CartesianWaypoint:
         quaternion = _quaternion_from_rpy(np.deg2rad(_vector(entry["rpy_deg"], f"{path}.rpy_deg", 3)))
     else:
         quaternion = _vector(entry["quat_xyzw"], f"{path}.quat_xyzw", 4)
-        norm = np.linalg.norm(quaternion)
-        if abs(norm - 1.0) > 1e-3:
+        norm = math.hypot(*quaternion)  # no overflow warning for huge entries: inf, refused below
+        if not abs(norm - 1.0) <= 1e-3:
             raise TaskError(f"{path}.quat_xyzw", f"must be a unit quaternion, norm is {norm:.6g}")
         quaternion = quaternion / norm
     hint = np.deg2rad(_vector(entry["hint_deg"], f"{path}.hint_deg")) if "hint_deg" in entry else None
@@ -488,6 +491,9 @@ def parse_task(data, *, name: str = "task", source: Path | None = None) -> Task:
         raise TaskError("trajectory.min_segment_s", f"{min_segment:g} s exceeds the upper duration bound "
                                                     f"optimizer.bounds_s[1] = {optimizer['bounds'][1]:g} s")
     label = _text(document["name"], "name") if "name" in document else name
+    if len(label) > MAX_NAME_CHARS:
+        raise TaskError("name", f"must be at most {MAX_NAME_CHARS} characters (it titles figures and files), "
+                                f"got {len(label)}")
     return Task(label, joints, cartesian, robot, limits, family, rate, min_segment, optimizer, source, ik, path)
 
 
@@ -544,5 +550,7 @@ def make_task(*, name: str = "task", robot: dict | None = None, joints_deg=None,
 
 def load_task(path) -> Task:
     """Read and validate a YAML task file (see the module docstring for what a file may be)."""
+    if not isinstance(path, (str, os.PathLike)) or not isinstance(os.fspath(path), str):
+        raise TaskError("", f"a task file is given by its path (text or path-like), not {type(path).__name__}")
     path = Path(path)
-    return parse_task(read_yaml(path, "task file"), name=path.stem, source=path)
+    return parse_task(read_yaml(path, "task file"), name=path.stem[:MAX_NAME_CHARS], source=path)

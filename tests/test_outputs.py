@@ -269,3 +269,40 @@ def test_python_api_save_follows_the_same_rules(tmp_path, task):
         result.save(tmp_path / "theirs")
     result.save(tmp_path / "theirs", force=True)
     assert (tmp_path / "theirs" / "x").read_text() == "x" and (tmp_path / "theirs" / "summary.json").exists()
+
+
+def test_a_forged_marker_cannot_reach_outside_the_folder(tmp_path):
+    victim = tmp_path / "victim.txt"
+    victim.write_text("keep me")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    (out / MARKER).write_text('{"files": ["../victim.txt", "notes.txt"]}')
+    with pytest.raises(OutputError, match="did not write"):  # the marker is not the planner's
+        write_outputs(out, {"a.txt": "1"})
+    write_outputs(out, {"a.txt": "1"}, force=True)
+    assert victim.read_text() == "keep me" and (out / "notes.txt").read_text() == "mine"
+
+
+def test_special_files_are_never_replaced(tmp_path):
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    for target in (Path("/dev/null"), fifo):
+        with pytest.raises(OutputError, match="not a regular file"):
+            with atomic_file(target):
+                raise AssertionError("the block must not run")
+    assert Path("/dev/null").is_char_device() and stat.S_ISFIFO(fifo.stat().st_mode)
+
+
+@pytest.mark.parametrize("path, message", [
+    ("/proc/planner-test-out", "cannot write there"),
+    ("x" * 300, "File name too long"),
+    (42, "must be a path"),
+    (b"out", "must be a path"),
+    ("a\0b", "NUL"),
+])
+def test_unusable_output_paths_are_output_errors(tmp_path, monkeypatch, path, message):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(OutputError, match=message):
+        write_outputs(path, {"a.txt": "1"})
+    assert list(tmp_path.iterdir()) == []

@@ -386,7 +386,7 @@ def test_replay_without_a_display_fails_before_starting_the_viewer(platform, rec
     monkeypatch.setattr(sys, "platform", platform)
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.setenv("WAYLAND_DISPLAY", "")
-    assert main(["replay", str(recording)]) != 0
+    assert main(["replay", str(recording)]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: no display") and err.count("\n") == 1
     assert "--check" in err and "--export-csv" in err and "machine with a display" in err
@@ -398,7 +398,7 @@ def test_replay_reports_a_viewer_that_fails_at_start_up(recording, monkeypatch, 
     monkeypatch.setenv("DISPLAY", ":99")
     monkeypatch.setattr(module, "VIEWER_COMMAND",
                         (sys.executable, "-c", "import sys; print('starting'); sys.exit('cannot open display :99')"))
-    assert main(["replay", str(recording)]) == 1
+    assert main(["replay", str(recording)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "exited with code 1" in err and "cannot open display :99" in err
 

@@ -278,8 +278,9 @@ def test_lists_and_mappings_are_not_names(where, value):
     ("trajectory.sample_rate_hz", "1e3", r"must be a number, got '1e3' \(text: write the number without quotes\)$"),
     ("trajectory.sample_rate_hz", 1e6, r"must be > 0 and <= 100000, got 1000000.0$"),
     ("trajectory.min_segment_s", 0, r"must be > 0 and <= 10, got 0$"),
-    ("optimizer.weights[0]", 0, r"must be > 0, got 0$"),
-    ("optimizer.weights[1]", -1e-9, r"must be >= 0, got -1e-09$"),
+    ("optimizer.weights[0]", 0, r"must be >= 1e-06 and <= 1e\+06, got 0$"),
+    ("optimizer.weights[0]", 1e300, r"must be >= 1e-06 and <= 1e\+06, got 1e\+300$"),
+    ("optimizer.weights[1]", -1e-9, r"must be >= 0 and <= 1e\+06, got -1e-09$"),
     ("optimizer.bounds_s[1]", 1e9, r"must be > 0 and <= 86400, got 1000000000.0$"),
 ])
 def test_numbers_out_of_range_are_refused(where, value, message):
@@ -368,3 +369,15 @@ def test_exponent_without_a_dot_is_a_number(tmp_path, text, expected):
     path.write_text(f"value: {text}\nquoted: '{text}'\n")
     data = read_yaml(path)
     assert data["value"] == expected and type(data["value"]) is type(expected) and data["quoted"] == text
+
+
+@pytest.mark.parametrize("argument", [b"version: 1\n", None, object(), 42])
+def test_load_task_takes_a_path_only(argument):
+    with pytest.raises(TaskError, match="a task file is given by its path"):
+        load_task(argument)
+
+
+def test_a_huge_name_is_refused():
+    data = {"version": 1, "name": "n" * 300, "waypoints": {"joints_deg": [[0], [1]]}, "limits": {"jerk_deg_s3": [1]}}
+    with pytest.raises(TaskError, match=r"^name: must be at most 200 characters .* got 300$"):
+        parse_task(data)

@@ -71,7 +71,8 @@ def cuckoo_search(problem: TimingProblem, *, nests: int = 20, iterations: int = 
                          f"refine_starts={refine_starts}")
     repair = variant == "improved"
     if not repair and problem.bounds is None:
-        raise InputError("the plain paper variant of Cuckoo Search needs duration bounds")
+        raise InputError("the plain paper variant of Cuckoo Search (cuckoo-paper) needs duration bounds: "
+                         "give optimizer.bounds_s")
     polish = repair if polish is None else polish
     rng = np.random.default_rng(seed)
     tracker = SearchTracker(problem, progress, iterations)
