@@ -25,7 +25,7 @@ from .recording import write_recording
 from .report import plot_profiles
 from .robot import Robot, load_robot
 from .splines import MAX_SAMPLES, PiecewisePolynomial
-from .task import Task, check_limit_counts, load_task, parse_task
+from .task import Task, check_limit_counts, check_task, load_task, parse_task
 from .timing import OptimizationResult, TimingProblem, optimize
 
 _LIMIT_UNITS = ("deg_s", "deg_s2", "deg_s3")
@@ -214,7 +214,7 @@ def as_task(task) -> Task:
         TaskError: anything else, or a task that does not validate.
     """
     if isinstance(task, Task):
-        return task
+        return check_task(task)
     if isinstance(task, Mapping):
         return parse_task(dict(task))
     if isinstance(task, (str, os.PathLike)):

@@ -497,6 +497,64 @@ def parse_task(data, *, name: str = "task", source: Path | None = None) -> Task:
     return Task(label, joints, cartesian, robot, limits, family, rate, min_segment, optimizer, source, ik, path)
 
 
+def _degrees(values) -> list:
+    """Radians (any nesting) as plain lists of degrees."""
+    return np.rad2deg(np.asarray(values, dtype=float)).tolist()
+
+
+def task_document(task: Task) -> dict:
+    """The task-file document of a ``Task`` (the inverse of ``parse_task``, in degrees).
+
+    Raises:
+        TaskError: ``task`` is not a ``Task`` or holds values no task file could (a hand-made one).
+    """
+    if not isinstance(task, Task):
+        raise TaskError("", f"not a Task: {type(task).__name__}")
+    try:
+        document = {"version": SCHEMA_VERSION, "name": task.name}
+        if task.robot is not None:
+            robot = {"urdf": str(task.robot.urdf)} if task.robot.urdf is not None else {"name": task.robot.name}
+            document["robot"] = robot | ({"tool_frame": task.robot.tool_frame} if task.robot.tool_frame else {})
+        if task.cartesian_waypoints is not None:
+            document["waypoints"] = {"cartesian": [
+                {"xyz_m": np.asarray(w.position, dtype=float).tolist(),
+                 "quat_xyzw": np.asarray(w.quaternion_xyzw, dtype=float).tolist()}
+                | ({"hint_deg": _degrees(w.hint)} if w.hint is not None else {}) for w in task.cartesian_waypoints]}
+            document["ik"] = {"branch": task.ik.branch, "seed": task.ik.seed} | (
+                {"start_deg": _degrees(task.ik.start)} if task.ik.start is not None else {})
+            document["path"] = {"mode": task.path.mode, "tolerance_m": task.path.tolerance_m,
+                                "tolerance_deg": float(np.rad2deg(task.path.tolerance_rad))}
+        elif task.joint_waypoints is not None:
+            document["waypoints"] = {"joints_deg": _degrees(task.joint_waypoints)}
+        else:
+            document["waypoints"] = None
+        limits = {_LIMIT_KEY_OF[name]: _degrees(values) for name, values in task.limits.items()
+                  if name not in ("lower", "upper")}
+        if "lower" in task.limits or "upper" in task.limits:
+            limits["position_deg"] = np.stack((_degrees(task.limits["lower"]), _degrees(task.limits["upper"])),
+                                              axis=-1).tolist()
+        if limits:
+            document["limits"] = limits
+        document["trajectory"] = {"family": task.family, "sample_rate_hz": task.sample_rate_hz,
+                                  "min_segment_s": task.min_segment_s}
+        settings = task.optimizer
+        document["optimizer"] = {"algorithm": settings["algorithm"], "seed": settings["seed"],
+                                 "objective": settings["objective"], "weights": list(settings["weights"]),
+                                 **settings["settings"]} | (
+            {"bounds_s": list(settings["bounds"])} if settings["bounds"] is not None else {})
+    except (TypeError, ValueError, AttributeError, KeyError, IndexError) as exc:
+        raise TaskError("", f"the Task holds values no task file could ({type(exc).__name__}: {exc}); "
+                            f"build tasks with load_task, parse_task or make_task") from None
+    return _plain(document)
+
+
+def check_task(task: Task) -> Task:
+    """``task`` itself, after checking that it is one a task file could give (``task_document``, then
+    ``parse_task``); a ``Task`` made by hand gets the same errors as a task file."""
+    parse_task(task_document(task), name=task.name, source=task.source)
+    return task
+
+
 def _plain(value):
     """Python and numpy values as the plain lists and numbers a parsed task file holds."""
     if isinstance(value, np.ndarray):

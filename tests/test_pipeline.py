@@ -5,7 +5,7 @@ import pinocchio as pin
 import pytest
 import yaml
 
-from planner import InfeasibleError, RobotError, TaskError, paper
+from planner import InfeasibleError, PlannerError, RobotError, TaskError, paper
 from planner.cli import main
 from planner.ik import pose_from_position_quaternion
 from planner.pipeline import plan
@@ -189,3 +189,18 @@ def test_summary_reports_each_waypoints_margin_to_the_ranges():
     for entry, q in zip(waypoints, result.via_points[result.waypoint_via]):
         independent = np.rad2deg(np.minimum(q - result.limits.lower, result.limits.upper - q)).min()
         assert entry["margin_deg"] == pytest.approx(independent, abs=1e-9)
+
+
+@pytest.mark.parametrize("change", [
+    {"joint_waypoints": np.array([1.0, 2.0])}, {"joint_waypoints": np.array([["a", "b"], ["c", "d"]])},
+    {"joint_waypoints": [[0.0, 1.0], [1.0, 2.0]]}, {"joint_waypoints": None}, {"joint_waypoints": np.zeros((3, 0))},
+    {"joint_waypoints": np.array([[0.0, np.nan], [1.0, 2.0]])}, {"limits": {"snap": np.ones(6)}},
+    {"limits": {"velocity": np.ones(3)}}, {"sample_rate_hz": "100"}, {"sample_rate_hz": -5.0}, {"optimizer": {}},
+    {"family": "septic"}, {"name": 7}, {"min_segment_s": 0.0},
+])
+def test_a_hand_made_task_gets_the_task_file_errors(change):
+    """From Python, plan() raises only PlannerError subclasses, also for a Task built by hand."""
+    import dataclasses
+    task = dataclasses.replace(load_task(PAPER_JOINT), **change)
+    with pytest.raises(PlannerError):
+        plan(task)

@@ -397,7 +397,7 @@ def test_replay_reports_a_viewer_that_fails_at_start_up(recording, monkeypatch, 
 
     monkeypatch.setenv("DISPLAY", ":99")
     monkeypatch.setattr(module, "VIEWER_COMMAND",
-                        (sys.executable, "-c", "import sys; print('starting'); sys.exit('cannot open display :99')"))
+                        (sys.executable, "-c", "import sys; print('starting', flush=True); sys.exit('cannot open display :99')"))
     assert main(["replay", str(recording)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "exited with code 1" in err and "cannot open display :99" in err
