@@ -283,7 +283,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
                                 objective=settings["objective"], weights=settings["weights"],
                                 min_duration=task.min_segment_s)
         result = optimize(problem, settings["algorithm"], seed=settings["seed"], progress=progress,
-                          **settings["settings"])
+                          time_limit_s=settings["time_limit"], **settings["settings"])
         progress.note(f"{progress.label}: total time {result.total_time:.6g} s, "
                       f"{'feasible' if result.feasible else 'INFEASIBLE'} ({result.wall_time_s:.2f} s)")
         if not result.feasible:

@@ -17,7 +17,7 @@ Schema (version 1)::
     ik: {branch: optimal, start_deg: [...], seed: 0}       # cartesian only; branch: optimal | continuous
     path: {mode: joint, tolerance_m: 0.001, tolerance_deg: 0.5}   # cartesian only; mode: joint | linear
     trajectory: {family: hybrid, sample_rate_hz: 100, min_segment_s: 0.001}
-    optimizer: {algorithm: default, seed: 0, bounds_s: [h_min, h_max], objective: time,
+    optimizer: {algorithm: default, seed: 0, bounds_s: [h_min, h_max], objective: time, time_limit_s: 120,
                 weights: [K_t, K_j], ...algorithm settings (nests, iterations, pa, ...)}
 
 Every single number has the range given in ``RANGES`` (seeds are integers in [0, 2^63),
@@ -60,7 +60,9 @@ _TOP_KEYS = ("version", "name", "robot", "waypoints", "limits", "ik", "path", "t
 PATH_MODES = ("joint", "linear")
 _LIMIT_KEYS = {"velocity_deg_s": "velocity", "acceleration_deg_s2": "acceleration", "jerk_deg_s3": "jerk"}
 _LIMIT_KEY_OF = {**{name: key for key, name in _LIMIT_KEYS.items()}, "lower": "position_deg", "upper": "position_deg"}
-_COMMON_OPTIMIZER_KEYS = ("algorithm", "seed", "bounds_s", "objective", "weights")
+_COMMON_OPTIMIZER_KEYS = ("algorithm", "seed", "bounds_s", "objective", "weights", "time_limit_s")
+#: Default wall-time limit of the timing optimization [s]: past it, the best timing found so far is kept.
+TIME_LIMIT_S = 120.0
 _CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f]")
 
 
@@ -91,11 +93,12 @@ _COUNT = 10_000
 #: bounded and catch unit mistakes.
 RANGES: dict[str, Range | type] = {
     "ik.seed": Range(0, MAX_SEED, integer=True),
-    "path.tolerance_m": Range(0, 1, low_open=True),                    # [m]
-    "path.tolerance_deg": Range(0, 180, low_open=True),                # [deg]
+    "path.tolerance_m": Range(1e-5, 1),                               # [m]: 10 um (a robot's repeatability) to 1 m
+    "path.tolerance_deg": Range(1e-3, 180),                           # [deg]
     "trajectory.sample_rate_hz": Range(0, 100_000, low_open=True),     # [Hz]: at most 100 kHz
     "trajectory.min_segment_s": Range(0, 10, low_open=True),           # [s]
     "optimizer.seed": Range(0, MAX_SEED, integer=True),
+    "optimizer.time_limit_s": Range(0, 86_400, low_open=True),         # [s]: at most a day
     "optimizer.bounds_s[0]": Range(0, 86_400, low_open=True),          # h_min [s]: at most a day
     "optimizer.bounds_s[1]": Range(0, 86_400, low_open=True),          # h_max [s]
     "optimizer.weights[0]": Range(1e-6, 1e6),                          # K_t [1/s]
@@ -189,6 +192,7 @@ class Task:
     sample_rate_hz: float = 100.0
     min_segment_s: float = 1e-3
     optimizer: dict = field(default_factory=lambda: {"algorithm": "default", "seed": 0, "bounds": None,
+                                                     "time_limit": TIME_LIMIT_S,
                                                      "objective": "time", "weights": (1.0, 1.0),
                                                      "settings": {}})
     source: Path | None = None
@@ -402,13 +406,15 @@ def _optimizer(value, path: str) -> dict:
     parameters = _optimizer_parameters(algorithm)
     section = _mapping(value, path, _COMMON_OPTIMIZER_KEYS + parameters)
     result = {"algorithm": algorithm, "seed": 0, "bounds": None, "objective": "time", "weights": (1.0, 1.0),
-              "settings": {}}
+              "time_limit": TIME_LIMIT_S, "settings": {}}
     for key, item in section.items():
         where = f"{path}.{key}"
         if key == "algorithm":
             continue
         if key == "seed":
             result["seed"] = _ranged(item, where)
+        elif key == "time_limit_s":
+            result["time_limit"] = float(_ranged(item, where))
         elif key in ("bounds_s", "weights"):
             if not isinstance(item, (list, tuple)) or len(item) != 2:
                 raise TaskError(where, f"must be a list of 2 numbers, got {shown(item)}")
@@ -539,6 +545,7 @@ def task_document(task: Task) -> dict:
                                   "min_segment_s": task.min_segment_s}
         settings = task.optimizer
         document["optimizer"] = {"algorithm": settings["algorithm"], "seed": settings["seed"],
+                                 "time_limit_s": settings["time_limit"],
                                  "objective": settings["objective"], "weights": list(settings["weights"]),
                                  **settings["settings"]} | (
             {"bounds_s": list(settings["bounds"])} if settings["bounds"] is not None else {})

@@ -204,3 +204,12 @@ def test_a_hand_made_task_gets_the_task_file_errors(change):
     task = dataclasses.replace(load_task(PAPER_JOINT), **change)
     with pytest.raises(PlannerError):
         plan(task)
+
+
+def test_the_time_limit_keeps_the_best_timing_and_says_so():
+    data = yaml.safe_load(PAPER_JOINT.read_text())
+    data["optimizer"] = {"algorithm": "cuckoo", "nests": 50, "iterations": 100_000, "time_limit_s": 0.5}
+    result = plan(parse_task(data, name="limited"))
+    optimizer = result.summary()["optimizer"]
+    assert optimizer["stop_reason"] == "time limit of 0.5 s reached"
+    assert result.summary()["feasible"] and len(optimizer["best_per_iteration"]) < 100_000

@@ -38,7 +38,8 @@ def test_paper_joint_task_loads_in_si_units():
     np.testing.assert_allclose(task.limits["jerk"], np.deg2rad(paper.JERK_LIMITS_DEG))
     assert task.family == "hybrid" and task.name == "puma560_paper_joint"
     assert task.optimizer == {"algorithm": "cuckoo", "seed": 0, "bounds": (3.0, 5.0), "objective": "time",
-                              "weights": (1.0, 1.0), "settings": {"nests": 20, "iterations": 150, "pa": 0.25}}
+                              "weights": (1.0, 1.0), "time_limit": 120.0,
+                              "settings": {"nests": 20, "iterations": 150, "pa": 0.25}}
 
 
 def test_optional_sections_take_defaults():
@@ -308,7 +309,7 @@ def test_every_optimizer_setting_has_a_range():
 
 
 def algorithm_with(setting: str) -> str:
-    return next(a for a in OPTIMIZERS if setting in _optimizer_parameters(a))
+    return next((a for a in OPTIMIZERS if setting in _optimizer_parameters(a)), "default")
 
 
 @pytest.mark.parametrize("key", [k for k, rule in RANGES.items() if k.startswith("optimizer.")
@@ -322,8 +323,8 @@ def test_optimizer_settings_outside_their_range_are_refused(key):
         data = joint_task(optimizer={"algorithm": algorithm, name: value})
         assert_refused(lambda: parse_task(data), rf"^{key}: must be {re.escape(str(rule))}, got {value}$", key)
     inside = rule.high if rule.high < math.inf and name not in ("refine_starts",) else rule.low + step
-    settings = parse_task(joint_task(optimizer={"algorithm": algorithm, name: inside})).optimizer["settings"]
-    assert settings[name] == inside
+    optimizer = parse_task(joint_task(optimizer={"algorithm": algorithm, name: inside})).optimizer
+    assert optimizer["time_limit"] == inside if name == "time_limit_s" else optimizer["settings"][name] == inside
 
 
 @pytest.mark.parametrize("settings, path", [

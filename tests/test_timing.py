@@ -189,3 +189,17 @@ def test_minimum_segment_duration_is_checked():
         TimingProblem(via, "hybrid", limits, min_duration=-1)
     repaired = TimingProblem(via, "hybrid", limits, min_duration=4.0).evaluate(np.full((1, 9), 0.5))
     assert repaired.feasible[0] and repaired.durations.min() >= 4.0
+
+
+@pytest.mark.parametrize("algorithm, settings", [("cuckoo", {"nests": 50, "iterations": 100000}),
+                                                  ("pso", {"particles": 50, "iterations": 100000}),
+                                                  ("nlp", {}), ("slsqp", {"starts": 10000})])
+def test_time_limit_stops_any_optimizer_with_a_feasible_best(algorithm, settings):
+    # As configured, every search but the NLP's (about 0.1 s anyway) would run for minutes.
+    problem = TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", paper.paper_limits())
+    result = optimize(problem, algorithm, time_limit_s=0.3, **settings)
+    if algorithm != "nlp":
+        assert result.stop_reason == "time limit of 0.3 s reached"
+    assert result.feasible and np.isfinite(result.total_time)
+    figures = kinematic_figures(problem.trajectory(result.durations))
+    assert not figures.violations(paper.paper_limits())

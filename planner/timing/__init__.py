@@ -7,7 +7,7 @@ from .baselines import multistart_slsqp, particle_swarm, scipy_differential_evol
 from .cuckoo import cuckoo_search
 from .nlp import nlp_refine
 from .problem import Evaluation, TimingProblem
-from .result import OptimizationResult, Progress, SearchTracker, StartReport
+from .result import OptimizationResult, OutOfTime, Progress, SearchTracker, StartReport, time_limit
 from .starts import start_shapes
 
 #: Problems with at most this many segments get Cuckoo Search before the NLP in the default planner.
@@ -51,16 +51,27 @@ OPTIMIZERS = {
 }
 
 
-def optimize(problem: TimingProblem, algorithm: str = "default", **settings) -> OptimizationResult:
-    """Run the named optimizer (see ``OPTIMIZERS``) with its settings."""
+def optimize(problem: TimingProblem, algorithm: str = "default", *, time_limit_s: float | None = None,
+             **settings) -> OptimizationResult:
+    """Run the named optimizer (see ``OPTIMIZERS``) with its settings.
+
+    Args:
+        time_limit_s: wall time [s] after which the search stops and returns the best candidate
+            found so far (``stop_reason`` says so; every optimizer holds a feasible candidate from
+            its first evaluation on). None: no limit.
+    """
     try:
         optimizer = OPTIMIZERS[algorithm]
     except (KeyError, TypeError):
         raise InputError(f"unknown optimizer {algorithm!r}; known: {', '.join(OPTIMIZERS)}") from None
-    try:
-        return optimizer(problem, **settings)
-    except TypeError as exc:
-        raise InputError(f"bad settings for optimizer {algorithm!r}: {exc}") from None
+    with time_limit(time_limit_s):
+        try:
+            return optimizer(problem, **settings)
+        except TypeError as exc:
+            raise InputError(f"bad settings for optimizer {algorithm!r}: {exc}") from None
+        except OutOfTime as stop:
+            return stop.tracker.result(algorithm, f"time limit of {time_limit_s:g} s reached", settings.get("seed"),
+                                       settings)
 
 
 __all__ = ["OPTIMIZERS", "Evaluation", "OptimizationResult", "StartReport", "TimingProblem", "cuckoo_search",

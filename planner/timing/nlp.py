@@ -56,7 +56,7 @@ from ..kinematics import max_abs, segment_extrema
 from ..native_output import stderr_captured
 from .formulations import FORMULATIONS, Scales, SegmentBlock
 from .problem import TimingProblem
-from .result import SearchTracker, StartReport
+from .result import SearchTracker, StartReport, remaining_time
 
 MAX_ROUNDS = 12
 #: Extremes inside a segment beyond (1 - FLAG_MARGIN) of their bound get a certificate.
@@ -373,8 +373,10 @@ class _Program:
         self.ubx = np.concatenate((np.full(segments, h_high), spline.upper, np.full(size, np.inf)))
         self.lbg, self.ubg = np.concatenate(lower), np.concatenate(upper)
         variables = ca.vertcat(eta, spline.states, extra)
+        remaining = remaining_time()  # IPOPT stops by itself at the time limit
+        options = IPOPT_OPTIONS if remaining is None else {**IPOPT_OPTIONS, "ipopt.max_wall_time": max(remaining, 1e-3)}
         self.solver = ca.nlpsol("timing", "ipopt", {"x": variables, "f": objective / scales.time,
-                                                    "g": ca.vertcat(*rows)}, IPOPT_OPTIONS)
+                                                    "g": ca.vertcat(*rows)}, options)
 
 
 def _certified_quantities(ca, certificates: list[Certificate], blocks: list[SegmentBlock], h) -> list:

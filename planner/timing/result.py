@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import time
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Callable, Iterator
 
 import numpy as np
 
@@ -93,8 +95,37 @@ class OptimizationResult:
         return sum(s.iterations for s in self.starts)
 
 
+#: Monotonic time [s] by which the running optimization must stop, or None (``time_limit``).
+_deadline: ContextVar[float | None] = ContextVar("timing_deadline", default=None)
+
+
+class OutOfTime(Exception):
+    """The time limit passed: carries the tracker, whose best candidate becomes the result."""
+
+    def __init__(self, tracker: "SearchTracker"):
+        super().__init__("time limit reached")
+        self.tracker = tracker
+
+
+@contextmanager
+def time_limit(seconds: float | None) -> Iterator[None]:
+    """Within the block, trackers stop the search (``OutOfTime``) once ``seconds`` [s] have passed."""
+    token = _deadline.set(None if seconds is None else time.monotonic() + seconds)
+    try:
+        yield
+    finally:
+        _deadline.reset(token)
+
+
+def remaining_time() -> float | None:
+    """Seconds left before the time limit (at least 0), or None without one."""
+    deadline = _deadline.get()
+    return None if deadline is None else max(deadline - time.monotonic(), 0.0)
+
+
 class SearchTracker:
-    """Counts evaluations, keeps the best candidate seen and the per-iteration history."""
+    """Counts evaluations, keeps the best candidate seen and the per-iteration history; stops the
+    search (``OutOfTime``) once a best candidate exists and the time limit has passed."""
 
     def __init__(self, problem: TimingProblem, progress: Progress | None = None, total_iterations: int = 0):
         self.problem = problem
@@ -112,7 +143,12 @@ class SearchTracker:
         evaluation = self.problem.evaluate(candidates) if repair else self.problem.evaluate_durations(candidates)
         self.evaluations += len(evaluation.objective)
         self._offer(evaluation)
+        self._check_time()
         return evaluation
+
+    def _check_time(self) -> None:
+        if self.best_durations is not None and remaining_time() == 0.0:
+            raise OutOfTime(self)
 
     def _offer(self, evaluation: Evaluation) -> None:
         i = int(np.argmin(evaluation.objective))
@@ -125,6 +161,7 @@ class SearchTracker:
         self.history.append(self.best_objective)
         if self._progress is not None:
             self._progress(len(self.history), self._total, self.best_objective)
+        self._check_time()
 
     def result(self, algorithm: str, stop_reason: str, seed: int | None, settings: dict) -> OptimizationResult:
         """The result for the best candidate, re-checked exactly as durations (no repair)."""
