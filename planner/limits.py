@@ -102,6 +102,23 @@ class JointLimits:
     def has_position_range(self) -> bool:
         return bool(np.isfinite(self.lower).any() or np.isfinite(self.upper).any())
 
+    def range_violation(self, positions: np.ndarray) -> tuple[tuple[int, ...], str, float] | None:
+        """The first position outside its joint's range, or None.
+
+        Args:
+            positions: (..., J) joint positions [rad].
+
+        Returns:
+            (index of the position in ``positions``, "lower" or "upper", the bound [rad] it passes).
+        """
+        positions = np.asarray(positions, dtype=float)
+        for side, outside in (("lower", positions < self.lower), ("upper", positions > self.upper)):
+            hits = np.argwhere(outside)
+            if hits.size:
+                index = tuple(int(i) for i in hits[0])
+                return index, side, float(getattr(self, side)[index[-1]])
+        return None
+
     def ratios(self, max_abs: np.ndarray) -> np.ndarray:
         """Constraint ratios r_{j,d} = max|q^(d)| / limit_{j,d}; 0 where the limit is absent.
 

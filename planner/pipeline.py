@@ -19,7 +19,7 @@ from .ik import IKSolution, pose_from_position_quaternion, solve_waypoints
 from .export import coefficients_document, write_json, write_trajectory_csv
 from .outputs import output_folder
 from .kinematics import KinematicFigures, kinematic_figures
-from .limits import QUANTITIES, JointLimits
+from .limits import QUANTITIES, JointLimits, in_degrees
 from .progress import TerminalProgress
 from .recording import write_recording
 from .report import plot_profiles
@@ -223,6 +223,20 @@ def as_task(task) -> Task:
                         f"not {type(task).__name__}")
 
 
+def _check_configuration(q: np.ndarray | None, key: str, robot: Robot) -> None:
+    """A task's configuration (``ik.start_deg``, a waypoint's ``hint_deg``) has one value per joint,
+    each inside its joint's range (``robot.limits``, the task's overrides included)."""
+    if q is None:
+        return
+    if len(q) != robot.dof:
+        raise TaskError(key, f"must have {robot.dof} values for robot {robot.name!r}, got {len(q)}")
+    violation = robot.limits.range_violation(q)
+    if violation is not None:
+        (j,), side, bound = violation
+        raise TaskError(f"{key}[{j}]", f"{in_degrees(q[j], 0)} is outside the range of joint "
+                                        f"{robot.limits.names[j]} ({side} limit {in_degrees(bound, 0)})")
+
+
 def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
     """Plan a task and return the result (nothing written; ``PlanResult.save`` writes it).
 
@@ -249,9 +263,9 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
     start = time.perf_counter()
     poses = None
     if task.cartesian_waypoints is not None:
-        if task.ik.start is not None and len(task.ik.start) != robot.dof:
-            raise TaskError("ik.start_deg", f"must have {robot.dof} values for robot {robot.name!r}, "
-                                            f"got {len(task.ik.start)}")
+        _check_configuration(task.ik.start, "ik.start_deg", robot)
+        for index, waypoint in enumerate(task.cartesian_waypoints):
+            _check_configuration(waypoint.hint, f"waypoints.cartesian[{index}].hint_deg", robot)
         poses = [pose_from_position_quaternion(w.position, w.quaternion_xyzw) for w in task.cartesian_waypoints]
         hints = [w.hint for w in task.cartesian_waypoints]
         progress.note(f"inverse kinematics: {len(poses)} waypoints ({task.ik.branch} branch rule)")

@@ -9,8 +9,9 @@ Used for task files and for a robot's limits file. Beyond ``yaml.safe_load`` it:
 * refuses a key given twice in one mapping (YAML says keys are unique; PyYAML keeps the last),
   nesting deeper than ``MAX_NESTING``, recursive aliases, and documents expanding to more than
   ``MAX_VALUES`` values (an alias counts as everything it stands for: "billion laughs");
-* reads ``1e-4`` and ``2E+5`` as numbers, as YAML 1.2 does (YAML 1.1, PyYAML's, reads a float
-  without a dot as text, a trap for anyone writing small limits).
+* resolves plain scalars by YAML 1.2's core schema (``_use_core_schema``): ``1e-4`` is a number
+  (YAML 1.1, PyYAML's, reads a float without a dot as text, a trap for anyone writing small
+  limits), ``010`` is ten, ``1:40`` is text, ``yes`` is text.
 """
 
 from __future__ import annotations
@@ -39,8 +40,6 @@ _BYTE_ORDER_MARKS = ((codecs.BOM_UTF32_LE, "utf-32", "UTF-32"), (codecs.BOM_UTF3
                      (codecs.BOM_UTF8, "utf-8-sig", "UTF-8"), (codecs.BOM_UTF16_LE, "utf-16", "UTF-16"),
                      (codecs.BOM_UTF16_BE, "utf-16", "UTF-16"))
 _PLAIN_KEY = re.compile(r"[A-Za-z0-9_\-]{1,40}")
-#: A YAML 1.2 float with an exponent and no dot (``1e-4``), which YAML 1.1 leaves as text.
-_EXPONENT_FLOAT = re.compile(r"^[-+]?[0-9]+[eE][-+]?[0-9]+$")
 
 
 def _key_text(key) -> str:
@@ -184,7 +183,31 @@ def _parse_yaml(text: str, path: Path):
             loader.dispose()
 
 
-_StrictLoader.add_implicit_resolver("tag:yaml.org,2002:float", _EXPONENT_FLOAT, list("-+0123456789"))
+def _use_core_schema(loader: type[yaml.SafeLoader]) -> None:
+    """Plain scalars resolved as YAML 1.2's core schema does, not as YAML 1.1 (PyYAML's): ``1e-4`` is
+    a number, while ``017`` is 17 (not octal 15), ``1:40`` and ``2001-12-14`` are text (not 100 and a
+    date), and only ``true``/``false`` are booleans (``yes``, ``no``, ``on``, ``off`` are text)."""
+    core = {"bool": r"true|True|TRUE|false|False|FALSE",
+            "int": r"[-+]?[0-9]+(_[0-9]+)*|0o[0-7]+|0x[0-9a-fA-F]+",  # 1_000 too, as in Python
+            "float": r"[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)([eE][-+]?[0-9]+)?|[-+]?\.(inf|Inf|INF)|\.(nan|NaN|NAN)",
+            "null": r"~|null|Null|NULL|"}
+    replaced = {f"tag:yaml.org,2002:{name}" for name in (*core, "timestamp")}
+    loader.yaml_implicit_resolvers = {first: [(tag, rule) for tag, rule in rules if tag not in replaced]
+                                      for first, rules in yaml.SafeLoader.yaml_implicit_resolvers.items()}
+    for name, pattern in core.items():
+        starts = list("tTfF") if name == "bool" else list("~nN") + [""] if name == "null" else list("-+.0123456789")
+        loader.add_implicit_resolver(f"tag:yaml.org,2002:{name}", re.compile(f"^(?:{pattern})$"), starts)
+    loader.add_constructor("tag:yaml.org,2002:int", _core_int)
+
+
+def _core_int(loader: yaml.SafeLoader, node: yaml.ScalarNode) -> int:
+    """A core-schema integer: decimal (leading zeros allowed), ``0o`` octal or ``0x`` hexadecimal."""
+    text = loader.construct_scalar(node).replace("_", "")
+    base = {"0o": 8, "0x": 16}.get(text[:2], 10)
+    return int(text[2:] if base != 10 else text, base)
+
+
+_use_core_schema(_StrictLoader)
 
 
 def read_yaml(path, what: str = "YAML file"):

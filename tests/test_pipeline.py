@@ -14,6 +14,7 @@ from planner.task import load_task, parse_task
 ROOT = Path(__file__).resolve().parents[1]
 TASKS = ROOT / "scripts" / "tasks"
 PAPER_JOINT = TASKS / "puma560_paper_joint.yaml"
+PAPER_CARTESIAN = TASKS / "puma560_paper_cartesian.yaml"
 
 
 def test_paper_cartesian_task_recovers_table_ii():
@@ -213,3 +214,20 @@ def test_the_time_limit_keeps_the_best_timing_and_says_so():
     optimizer = result.summary()["optimizer"]
     assert optimizer["stop_reason"] == "time limit of 0.5 s reached"
     assert result.summary()["feasible"] and len(optimizer["best_per_iteration"]) < 100_000
+
+
+@pytest.mark.parametrize("where, value, message", [
+    ("start", [0, 0, 0, 0, 0, 900], r"^ik\.start_deg\[5\]: 900 deg is outside the range of joint \w+ \(upper limit "),
+    ("start", [0, -400, 0, 0, 0, 0], r"^ik\.start_deg\[1\]: -400 deg is outside the range of joint \w+ \(lower limit "),
+    ("start", [0, 0, 0], r"^ik\.start_deg: must have 6 values for robot 'puma560', got 3"),
+    ("hint", [10, 15, 45, 5, 10, 300], r"^waypoints\.cartesian\[2\]\.hint_deg\[5\]: 300 deg is outside the range "),
+    ("hint", [10, 15, 45, 5], r"^waypoints\.cartesian\[2\]\.hint_deg: must have 6 values"),
+])
+def test_start_and_hints_outside_the_ranges_name_key_joint_and_bound(where, value, message):
+    data = yaml.safe_load(PAPER_CARTESIAN.read_text())
+    if where == "start":
+        data["ik"] = {"start_deg": value}
+    else:
+        data["waypoints"]["cartesian"][2]["hint_deg"] = value
+    with pytest.raises(TaskError, match=message):
+        plan(parse_task(data, source=PAPER_CARTESIAN))

@@ -241,7 +241,7 @@ def test_escaped_control_characters_in_strings_are_refused():
 
 
 @pytest.mark.parametrize("text", [
-    "version: 2001-13-45\n", "version: !!timestamp soon\n", f"version: {'1' * 5000}\n", "version: !!int 0b\n",
+    "version: !!timestamp 2001-13-45\n", "version: !!timestamp soon\n", f"version: {'1' * 5000}\n", "version: !!int 0b\n",
     "version: !!float x\n", "version: !!binary 'a'\n", "version: !!python/object:os.system x\n",
     "? [a]\n: 1\n", "version: 1\n---\nversion: 1\n", "version: *nowhere\n",
 ])
@@ -362,9 +362,13 @@ def task_with(where: str, value) -> dict:
 
 
 @pytest.mark.parametrize("text, expected", [("1e-4", 1e-4), ("-2E+5", -2e5), ("3e2", 300.0), ("1.5e-3", 1.5e-3),
-                                            ("12", 12), ("1_000", 1000)])
-def test_exponent_without_a_dot_is_a_number(tmp_path, text, expected):
-    """YAML 1.1 reads 1e-4 as text; task files read it as the number a user means (YAML 1.2)."""
+                                            ("12", 12), ("1_000", 1000), ("010", 10), ("-007", -7), ("0x1F", 31),
+                                            ("0o17", 15), (".5", 0.5), ("-.inf", -math.inf), ("1:40", "1:40"),
+                                            ("2001-12-14", "2001-12-14"), ("yes", "yes"), ("off", "off"),
+                                            ("0b101", "0b101"), ("true", True), ("~", None)])
+def test_plain_scalars_read_as_yaml_1_2_core_schema(tmp_path, text, expected):
+    """YAML 1.1 reads 1e-4 as text, 010 as eight, 1:40 as 100 and yes as true; task files read
+    plain scalars as YAML 1.2's core schema does."""
     from planner.yaml_input import read_yaml
     path = tmp_path / "x.yaml"
     path.write_text(f"value: {text}\nquoted: '{text}'\n")

@@ -147,16 +147,13 @@ class TimingProblem:
         return float(array[0]), float(array[1])
 
     def _check_via_points_in_range(self) -> None:
-        for name, outside in (("lower", self.given_via_points < self.limits.lower),
-                              ("upper", self.given_via_points > self.limits.upper)):
-            hits = np.argwhere(outside)
-            if hits.size:
-                k, j = (int(i) for i in hits[0])
-                bound = getattr(self.limits, name)[j]
-                raise InfeasibleError(
-                    f"via-point {k} puts joint {self.limits.names[j]} at {in_degrees(self.given_via_points[k, j], 0)}, "
-                    f"outside its {name} limit {in_degrees(bound, 0)}",
-                    joint=j, quantity="position", value=float(self.given_via_points[k, j]), limit=float(bound))
+        violation = self.limits.range_violation(self.given_via_points)
+        if violation is not None:
+            (k, j), name, bound = violation
+            raise InfeasibleError(
+                f"via-point {k} puts joint {self.limits.names[j]} at {in_degrees(self.given_via_points[k, j], 0)}, "
+                f"outside its {name} limit {in_degrees(bound, 0)}",
+                joint=j, quantity="position", value=float(self.given_via_points[k, j]), limit=bound)
 
     def _check_upper_bound_feasible(self) -> None:
         _, ratios, _ = self._figures(np.full((1, self.segment_count), self.bounds[1]))
