@@ -127,6 +127,8 @@ def check_output_folder(path, *, force: bool = False) -> tuple[Path, bool]:
 
 def _check_folder(folder: Path, force: bool) -> tuple[Path, bool]:
     """``check_output_folder`` for an absolute ``folder``."""
+    if folder == Path(folder.anchor):
+        raise OutputError(f"output folder {folder} is the filesystem's root; give a folder of its own")
     check_writable_location(folder, "output folder")
     if not folder.exists():
         return folder, False

@@ -197,6 +197,10 @@ def shortest_total_time(via: np.ndarray, limits: JointLimits, task: Task) -> flo
 def robot_limits(robot: Robot, task: Task) -> JointLimits:
     """The robot's limits with the task's overrides; acceleration and jerk limits must exist."""
     check_limit_counts(task.limits, robot.dof, f"for robot {robot.name!r}")
+    if robot.placeholder_velocity and task.limits.get("velocity") is None:
+        raise RobotError(f"robot {robot.name!r} gives joint {robot.placeholder_velocity[0]} a velocity limit of 0 "
+                         f"in its URDF (a placeholder: the joint could not move); give limits.velocity_deg_s "
+                         f"in the task")
     limits = robot.limits.with_overrides(names=tuple(robot.joint_names), **task.limits)
     for quantity, yaml_key in (("acceleration", "acceleration_deg_s2"), ("jerk", "jerk_deg_s3")):
         missing = np.flatnonzero(~np.isfinite(getattr(limits, quantity)))

@@ -500,7 +500,9 @@ def read_recording(path) -> RecordedPlan:
     """
     path = Path(path)
     if not path.is_file():
-        raise RecordingError(f"{path}: no such recording")
+        what = ("a folder: give the .rrd file in it" if path.is_dir() else
+                "not a regular file (a device or pipe)" if path.exists() else "no such recording")
+        raise RecordingError(f"{path}: {what}")
     application, chunks = _trajectory_chunks(path)
     if not chunks.keys() & {_DEFINITION, _SAMPLES, _END} and application != APPLICATION_ID:
         raise RecordingError(f"{path}: not a planner recording (no trajectory definition of format {FORMAT})")
@@ -523,14 +525,17 @@ def _trajectory_chunks(path: Path) -> tuple[str, dict[str, list]]:
     import rerun.chunk as rc
 
     try:
-        with warnings.catch_warnings():  # rerun warns about files without a footer; the checks below say it
-            warnings.simplefilter("ignore")
+        with warnings.catch_warnings(record=True) as warned:  # rerun warns about a file without its footer
+            warnings.simplefilter("always")
             reader = rc.RrdReader(str(path))
             stores = reader.recordings()
             chunks = reader.stream().filter(content="/trajectory/**").to_chunks()
     except Exception as exc:  # rerun raises plain exceptions for corrupt files
         said = (str(exc).splitlines() or [type(exc).__name__])[0]
         raise RecordingError(f"{path}: not a readable Rerun recording ({said})") from None
+    if any("no footer" in str(warning.message) for warning in warned):
+        raise RecordingError(f"{path}: recording is incomplete: its footer, written when the file is closed, is "
+                             f"missing (the file was cut short or is still being written)")
     if len(stores) != 1:
         raise RecordingError(f"{path}: holds {len(stores)} recordings; a planner recording holds one")
     by_entity: dict[str, list] = {}

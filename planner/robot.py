@@ -11,6 +11,8 @@ must all be single-axis revolute joints (task values are in degrees).
 from __future__ import annotations
 
 import math
+import os
+import stat
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -25,6 +27,8 @@ from .yaml_input import read_yaml
 
 #: Largest URDF file loaded [bytes]: the parser reads about 1 MB/s of XML.
 MAX_URDF_BYTES = 16 * 2**20
+#: Largest mesh file a URDF may name [bytes]: a detailed industrial-arm link is a few MB.
+MAX_MESH_BYTES = 256 * 2**20
 _LIMIT_FILE_KEYS = {"acceleration_deg_s2": "acceleration", "jerk_deg_s3": "jerk"}
 #: Pinocchio's single-axis revolute joints, the only ones planned (task keys are in degrees).
 _REVOLUTE = ("JointModelRX", "JointModelRY", "JointModelRZ", "JointModelRevoluteUnaligned")
@@ -44,6 +48,8 @@ class Robot:
             acceleration and jerk from the limits file where there is one).
         urdf_path: the URDF file, for visualisation.
         package_dirs: folders that resolve the URDF's ``package://`` meshes.
+        placeholder_velocity: joints whose URDF velocity limit is 0, which exporters write as a
+            placeholder: their ``limits.velocity`` is absent (+inf) and a task must give one.
     """
 
     name: str
@@ -54,6 +60,7 @@ class Robot:
     limits: JointLimits
     urdf_path: Path
     package_dirs: tuple[Path, ...] = ()
+    placeholder_velocity: tuple[str, ...] = ()
 
     @property
     def joint_names(self) -> list[str]:
@@ -102,6 +109,7 @@ class Robot:
                 failure = None
         if failure is not None:
             raise RobotError(f"cannot load URDF {path}: {_first_line(str(failure))}{_detail(parser_log)}") from None
+        _check_meshes(path, package_dirs)
         extra = _read_limit_file(path.with_suffix(".limits.yaml"), model)
         return cls._build(model.name or path.stem, model, tool_frame, path, tuple(package_dirs), extra)
 
@@ -154,8 +162,53 @@ class Robot:
         lower = np.where(np.isfinite(reduced.lowerPositionLimit), reduced.lowerPositionLimit, -np.inf)
         upper = np.where(np.isfinite(reduced.upperPositionLimit), reduced.upperPositionLimit, np.inf)
         limits = JointLimits.create(reduced.nq, lower=lower, upper=upper, velocity=velocity, **extra_limits)
+        placeholder = tuple(reduced.names[int(j) + 1] for j in np.flatnonzero(reduced.velocityLimit == 0))
         return cls(name, reduced, reduced.createData(), tool_frame, reduced.getFrameId(tool_frame), limits,
-                   Path(urdf_path), package_dirs)
+                   Path(urdf_path), package_dirs, placeholder)
+
+
+def _mesh_file(filename: str, urdf_path: Path, package_dirs) -> Path | None:
+    """The file a URDF ``<mesh filename>`` names, resolved as the recording's importer does
+    (``package://NAME/...`` in ``package_dirs`` and ``ROS_PACKAGE_PATH``, ``file://``, or relative
+    to the URDF's folder), or None where it is not found."""
+    if filename.startswith("package://"):
+        package, _, rest = filename.removeprefix("package://").partition("/")
+        roots = [Path(d) for d in package_dirs] + [Path(d) for d in os.environ.get("ROS_PACKAGE_PATH", "").split(
+            os.pathsep) if d]
+        candidates = [root / package / rest for root in roots] + [root / rest for root in roots if root.name == package]
+        return next((c for c in candidates if os.path.lexists(c)), None)
+    path = Path(filename.removeprefix("file://"))
+    return path if path.is_absolute() else urdf_path.parent / path
+
+
+def _check_meshes(urdf_path: Path, package_dirs) -> None:
+    """Every mesh the URDF names that exists is a regular file of at most ``MAX_MESH_BYTES``, so that
+    drawing the robot cannot read a device (``/dev/zero``) or a pipe without end.
+
+    Raises:
+        RobotError: naming the link, the mesh and what it is.
+    """
+    import xml.etree.ElementTree as ElementTree
+
+    try:
+        links = list(ElementTree.parse(urdf_path).getroot().iter("link"))
+    except (OSError, ElementTree.ParseError):  # Pinocchio read it: a dialect ElementTree cannot; nothing to check
+        return
+    for link in links:
+        for mesh in link.iter("mesh"):
+            named = mesh.get("filename") or ""
+            try:
+                path = _mesh_file(named, urdf_path, package_dirs)
+                status = os.stat(path) if path is not None and os.path.lexists(path) else None
+            except (OSError, ValueError):  # a dangling link, a NUL in the name: the viewer skips it too
+                continue
+            if status is None:
+                continue
+            where = f"URDF {urdf_path}: link {shown(link.get('name'), 60)} mesh {shown(named, 120)}"
+            if not stat.S_ISREG(status.st_mode):
+                raise RobotError(f"{where} is not a regular file (a folder, device or pipe)")
+            if status.st_size > MAX_MESH_BYTES:
+                raise RobotError(f"{where} is larger than {MAX_MESH_BYTES >> 20} MiB")
 
 
 def _first_line(text: str) -> str:

@@ -300,6 +300,7 @@ def test_special_files_are_never_replaced(tmp_path):
     (42, "must be a path"),
     (b"out", "must be a path"),
     ("a\0b", "NUL"),
+    ("/", "is the filesystem's root"),
 ])
 def test_unusable_output_paths_are_output_errors(tmp_path, monkeypatch, path, message):
     monkeypatch.chdir(tmp_path)

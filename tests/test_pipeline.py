@@ -231,3 +231,19 @@ def test_start_and_hints_outside_the_ranges_name_key_joint_and_bound(where, valu
         data["waypoints"]["cartesian"][2]["hint_deg"] = value
     with pytest.raises(TaskError, match=message):
         plan(parse_task(data, source=PAPER_CARTESIAN))
+
+
+def test_a_urdf_velocity_limit_of_zero_is_a_placeholder_the_task_must_replace(tmp_path):
+    robots = ROOT / "robots"
+    urdf = (robots / "puma560.urdf").read_text()
+    assert urdf.count('velocity="1.658062789"') == 1
+    (tmp_path / "puma560.urdf").write_text(urdf.replace('velocity="1.658062789"', 'velocity="0"'))
+    (tmp_path / "puma560.limits.yaml").write_text((robots / "puma560.limits.yaml").read_text())
+    data = yaml.safe_load(PAPER_JOINT.read_text())
+    data["robot"] = {"urdf": str(tmp_path / "puma560.urdf"), "tool_frame": "tool"}
+    data.pop("limits", None)
+    with pytest.raises(RobotError, match=r"gives joint joint2 a velocity limit of 0 in its URDF .* give "
+                                         r"limits\.velocity_deg_s in the task"):
+        plan(parse_task(data))
+    data["limits"] = {"velocity_deg_s": [100] * 6}
+    assert plan(parse_task(data)).summary()["feasible"]

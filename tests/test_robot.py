@@ -233,3 +233,26 @@ def test_example_robot_this_pinocchio_cannot_load_is_a_robot_error(monkeypatch, 
                                          r"\(loader noise\)$"):
         Robot.from_example_robot_data("broken")
     assert capfd.readouterr().err == ""
+
+
+MESH_ARM = """<robot name="meshy">
+  <link name="base"/>
+  <link name="arm"><visual><geometry><mesh filename="{mesh}"/></geometry></visual></link>
+  <joint name="shoulder" type="revolute"><parent link="base"/><child link="arm"/><axis xyz="0 0 1"/>
+    <limit lower="-3" upper="3" velocity="1" effort="1"/></joint>
+</robot>"""
+
+
+@pytest.mark.parametrize("mesh, what", [("/dev/zero", "not a regular file"), ("file:///dev/zero", "not a regular file"),
+                                        ("meshes", "not a regular file"), ("link.stl", None),
+                                        ("missing.stl", None), ("package://nowhere/arm.stl", None)])
+def test_urdf_meshes_must_be_regular_files(tmp_path, mesh, what):
+    (tmp_path / "meshes").mkdir()
+    (tmp_path / "link.stl").write_bytes(b"solid x\nendsolid x\n")
+    urdf = tmp_path / "meshy.urdf"
+    urdf.write_text(MESH_ARM.format(mesh=mesh))
+    if what is None:  # a regular file, or one the viewer will not find either (it warns)
+        assert Robot.from_urdf(urdf, "arm").dof == 1
+    else:
+        with pytest.raises(RobotError, match=rf"URDF .*meshy.urdf: link 'arm' mesh '{mesh}' is {what}"):
+            Robot.from_urdf(urdf, "arm")
