@@ -35,10 +35,11 @@ from typing import Callable, TypeVar
 import numpy as np
 import pinocchio as pin
 
-from .errors import IKError
+from .errors import IKError, TaskError
 from .ik import solve_pose
 from .robot import Robot
 from .splines import PiecewisePolynomial
+from .task import MAX_VIA_POINTS
 
 #: Forward-kinematics samples per second of trajectory when checking the deviation.
 CHECK_RATE_HZ = 250.0
@@ -176,6 +177,11 @@ def follow_straight_lines(robot: Robot, poses: list[pin.SE3], waypoint_q: np.nda
         if rounds == MAX_ROUNDS:
             break
         found = [(int(np.searchsorted(waypoint_via, k, side="right") - 1), int(k)) for k in np.flatnonzero(exceeded)]
+        if len(via) + len(found) > MAX_VIA_POINTS:
+            raise TaskError("path.tolerance_m", f"following the straight lines within {1e3 * tolerance_m:g} mm and "
+                                                f"{np.rad2deg(tolerance_rad):g} deg needs more than {MAX_VIA_POINTS} "
+                                                f"via-points ({len(via)} after {rounds} rounds, still straying); "
+                                                f"allow larger tolerances or split the task")
         # Segment by segment; within one, backwards, so an insertion keeps the earlier indices valid.
         for i, k in sorted(found, key=lambda item: (item[0], -item[1])):
             _insert(robot, poses, i, k - waypoint_via[i], fractions[i], configurations[i], distance[k], angle[k])

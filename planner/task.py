@@ -56,6 +56,10 @@ MAX_NAME_CHARS = 200
 MIN_SEGMENT_S = 1e-3
 #: Largest seed of the random generators (numpy takes seeds in [0, 2^63) here).
 MAX_SEED = 2**63 - 1
+#: Most via-points a task may plan (its waypoints, and with ``path.mode: linear`` the poses
+#: inserted between them): the timing scales to thousands, and 5000 via-points are already
+#: a trajectory to be split.
+MAX_VIA_POINTS = 5000
 _TOP_KEYS = ("version", "name", "robot", "waypoints", "limits", "ik", "path", "trajectory", "optimizer")
 PATH_MODES = ("joint", "linear")
 _LIMIT_KEYS = {"velocity_deg_s": "velocity", "acceleration_deg_s2": "acceleration", "jerk_deg_s3": "jerk"}
@@ -329,6 +333,10 @@ def _waypoints(value, path: str):
     section = _mapping(value, path, ("joints_deg", "cartesian"))
     if len(section) != 1:
         raise TaskError(path, "needs exactly one of joints_deg or cartesian")
+    key, entries = next(iter(section.items()))
+    if isinstance(entries, (list, tuple)) and len(entries) > MAX_VIA_POINTS:
+        raise TaskError(f"{path}.{key}", f"has {len(entries)} waypoints; at most {MAX_VIA_POINTS} are planned at once "
+                                         f"(split the task)")
     if "joints_deg" in section:
         return _joint_waypoints(section["joints_deg"], f"{path}.joints_deg"), None
     poses = section["cartesian"]

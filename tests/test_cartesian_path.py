@@ -159,3 +159,11 @@ def test_a_comparison_sequence_that_cannot_be_timed_does_not_fail_the_plan(monke
     result = plan(parse_task(data, source=TASKS / "ur5_pick_and_place.yaml"))
     assert result.branch_times["continuous"] is None and result.branch_times["optimal"] > 0
     assert result.optimization.feasible
+
+
+def test_a_straight_path_needing_too_many_via_points_is_refused_naming_the_tolerance(tmp_path, monkeypatch):
+    import planner.cartesian_path as cartesian_path
+    monkeypatch.setattr(cartesian_path, "MAX_VIA_POINTS", 8)  # the UR5 task needs more than 8 in linear mode
+    with pytest.raises(TaskError, match=r"^path\.tolerance_m: following the straight lines within 1 mm and 0\.5 deg "
+                                        r"needs more than 8 via-points"):
+        plan(load_task(linear_ur5_task(tmp_path)))

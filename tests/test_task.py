@@ -386,3 +386,13 @@ def test_a_huge_name_is_refused():
     data = {"version": 1, "name": "n" * 300, "waypoints": {"joints_deg": [[0], [1]]}, "limits": {"jerk_deg_s3": [1]}}
     with pytest.raises(TaskError, match=r"^name: must be at most 200 characters .* got 300$"):
         parse_task(data)
+
+
+@pytest.mark.parametrize("key", ["joints_deg", "cartesian"])
+def test_more_waypoints_than_planned_at_once_are_refused(key):
+    from planner.task import MAX_VIA_POINTS
+    entry = [0, 0, 0, 0, 0, 0] if key == "joints_deg" else {"xyz_m": [0.4, 0, 0.3], "rpy_deg": [0, 0, 0]}
+    data = joint_task(waypoints={key: [entry] * (MAX_VIA_POINTS + 1)})
+    assert_refused(lambda: parse_task(data, source=PAPER_CARTESIAN),
+                   rf"^waypoints\.{key}: has {MAX_VIA_POINTS + 1} waypoints; at most {MAX_VIA_POINTS} are planned",
+                   f"waypoints.{key}")
