@@ -1,8 +1,8 @@
-"""The source paper's numbers (shared/reference/PAPER-DATA.md), in its units: degrees, seconds.
+"""The source paper's numbers, in its units: degrees, seconds.
 
-Paper: "Time-optimal trajectory generation in joint space for 6R industrial
-serial robots using Cuckoo search algorithm". Table V is reported beside ours
-but is not reproducible (TIMING-SPEC §5).
+Paper: ``TITLE``. Each constant names the table it comes from. Table V is
+reported beside ours but is not reproducible: for most joints it is below the
+mean speed between two of its own via-points (``planner reproduce`` shows it).
 """
 
 from __future__ import annotations
@@ -10,6 +10,10 @@ from __future__ import annotations
 import numpy as np
 
 from .limits import JointLimits
+
+#: The source paper's title.
+TITLE = ("Time-optimal trajectory generation in joint space for 6R industrial serial robots "
+         "using Cuckoo search algorithm")
 
 #: Table II: joint via-points [deg], 8 x 6.
 VIA_POINTS_DEG = np.array([

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import warnings
+from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -16,15 +18,116 @@ PLOT_SAMPLES = 20_000
 PLOT_VIA_LINES = 200
 
 
+def markdown_cell(value) -> str:
+    """One table cell as Markdown text: floats with 3 decimals ("-" when not finite), pipes escaped
+    (a bare ``|`` would end the cell) and line breaks as spaces (one would end the row)."""
+    if isinstance(value, (float, np.floating)):
+        return f"{value:.3f}" if np.isfinite(value) else "-"
+    return " ".join(str(value).replace("\\|", "|").replace("|", "\\|").splitlines())
+
+
 def markdown_table(header: list[str], rows: list[list]) -> str:
-    """A GitHub Markdown table; floats with 3 decimals."""
-    def cell(value):
-        if isinstance(value, (float, np.floating)):
-            return f"{value:.3f}" if np.isfinite(value) else "-"
-        return str(value)
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(cell(v) for v in row) + " |" for row in rows]
+    """A GitHub Markdown table; floats with 3 decimals; any text safe in a cell (``markdown_cell``)."""
+    lines = ["| " + " | ".join(markdown_cell(v) for v in header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(markdown_cell(v) for v in row) + " |" for row in rows]
     return "\n".join(lines)
+
+
+@dataclass(frozen=True)
+class ProfileColumn:
+    """One trajectory drawn as a column of four profiles, with optional reference values.
+
+    Attributes:
+        trajectory: the trajectory [rad, s].
+        title: the column's heading (plain text).
+        waypoint_via: indices of the task's waypoints among the via-points (default all).
+        points: optional (times (n,) [s], positions (n, J) [rad]): reference positions drawn as
+            circles in the joints' colours on the position panel.
+        levels: optional (3, J) reference magnitudes of velocity, acceleration and jerk
+            [rad/s^d], drawn at +- the value, dash-dotted in the joints' colours (NaN: none).
+    """
+
+    trajectory: PiecewisePolynomial
+    title: str = ""
+    waypoint_via: np.ndarray | None = None
+    points: tuple[np.ndarray, np.ndarray] | None = None
+    levels: np.ndarray | None = None
+
+
+def _draw_column(axes, column: ProfileColumn, limits: JointLimits, colours: list[str], rate_hz: float) -> list:
+    """Draw ``column`` into four axes (position .. jerk); returns the joints' profile lines (one per joint)."""
+    trajectory = column.trajectory
+    times, values = trajectory.sample(min(rate_hz, PLOT_SAMPLES / trajectory.total_time))
+    joints = trajectory.joint_count
+    via_times = trajectory.via_times
+    is_waypoint = np.zeros(len(via_times), dtype=bool)
+    waypoint_via = column.waypoint_via
+    is_waypoint[np.arange(len(via_times)) if waypoint_via is None else np.asarray(waypoint_via)] = True
+    bounds = [(limits.lower, limits.upper)] + [(-m, m) for m in limits.magnitudes]
+    joint_lines = []
+    for k, axis in enumerate(axes):
+        lines = []
+        for j in range(joints):
+            colour = colours[j % len(colours)]
+            lines += axis.plot(times, np.rad2deg(values[k, :, j]), color=colour, linewidth=1.4)
+            dashes = (3.0 * j, (3.0, 3.0 * max(joints - 1, 1)))  # interleaved with the other joints'
+            for bound in (bounds[k][0][j], bounds[k][1][j]):
+                if np.isfinite(bound):
+                    axis.axhline(np.rad2deg(bound), color=colour, linestyle=dashes, linewidth=0.9, alpha=0.8)
+            if k == 0 and column.points is not None:
+                point_times, positions = column.points
+                axis.plot(point_times, np.rad2deg(positions[:, j]), "o", color=colour, markeredgecolor="black",
+                          markersize=5, zorder=3)
+            if k > 0 and column.levels is not None and np.isfinite(column.levels[k - 1, j]):
+                level = np.rad2deg(column.levels[k - 1, j])
+                for value in (-level, level):
+                    axis.axhline(value, color=colour, linestyle="-.", linewidth=1.1)
+        if len(via_times) <= PLOT_VIA_LINES:
+            for t, waypoint in zip(via_times, is_waypoint):
+                axis.axvline(t, color="0.45" if waypoint else "0.75", linestyle=":",
+                             linewidth=0.9 if waypoint else 0.6)
+        axis.grid(alpha=0.3)
+        joint_lines = joint_lines or lines
+    if column.title:
+        axes[0].set_title(column.title, fontsize=10)
+    axes[-1].set_xlabel("time [s]")
+    return joint_lines
+
+
+def _legend_keys(columns: list[ProfileColumn], points_label: str, levels_label: str) -> tuple[list, list[str]]:
+    """Legend entries for the limits, the via-point lines and the reference values the columns draw."""
+    from matplotlib.lines import Line2D
+
+    keys = [Line2D([], [], color="0.3", linestyle="--", linewidth=0.9)]
+    labels = ["limits (dashed, in the joint's colour)"]
+    drawn = [c for c in columns if len(c.trajectory.via_times) <= PLOT_VIA_LINES]
+    if drawn:
+        keys.append(Line2D([], [], color="0.45", linestyle=":", linewidth=0.9))
+        labels.append("waypoint times")
+        if any(c.waypoint_via is not None and len(np.unique(c.waypoint_via)) < len(c.trajectory.via_times)
+               for c in drawn):
+            keys.append(Line2D([], [], color="0.75", linestyle=":", linewidth=0.6))
+            labels.append("inserted via-points")
+    if any(c.points is not None for c in columns):
+        keys.append(Line2D([], [], color="0.6", marker="o", markeredgecolor="black", linestyle="none"))
+        labels.append(points_label)
+    if any(c.levels is not None for c in columns):
+        keys.append(Line2D([], [], color="0.3", linestyle="-.", linewidth=1.1))
+        labels.append(levels_label)
+    return keys, labels
+
+
+@contextmanager
+def _plain_text_figures():
+    """matplotlib.pyplot with the Agg backend, in a context where text is plain (no mathtext)
+    and missing glyphs are drawn as boxes without a warning."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    with matplotlib.rc_context({"text.parse_math": False}), warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=r"Glyph \d+ .* missing from font", category=UserWarning)
+        yield plt
 
 
 def plot_profiles(trajectory: PiecewisePolynomial, limits: JointLimits, path: Path, *, title: str = "",
@@ -42,51 +145,51 @@ def plot_profiles(trajectory: PiecewisePolynomial, limits: JointLimits, path: Pa
     leading ``_`` does not hide a joint); characters the font lacks are drawn as boxes, without
     a warning.
     """
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.lines import Line2D
-
-    times, values = trajectory.sample(min(rate_hz, PLOT_SAMPLES / trajectory.total_time))
+    column = ProfileColumn(trajectory, waypoint_via=waypoint_via)
     names = joint_names or list(limits.names)
-    joints = trajectory.joint_count
-    via_times = trajectory.via_times
-    is_waypoint = np.zeros(len(via_times), dtype=bool)
-    is_waypoint[np.arange(len(via_times)) if waypoint_via is None else np.asarray(waypoint_via)] = True
-    with matplotlib.rc_context({"text.parse_math": False}), warnings.catch_warnings():
-        warnings.filterwarnings("ignore", message=r"Glyph \d+ .* missing from font", category=UserWarning)
+    with _plain_text_figures() as plt:
         figure, axes = plt.subplots(4, 1, figsize=(11, 12), sharex=True)
         colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-        bounds = [(limits.lower, limits.upper)] + [(-m, m) for m in limits.magnitudes]
+        lines = _draw_column(axes, column, limits, colours, rate_hz)
         for k, axis in enumerate(axes):
-            lines = []
-            for j in range(joints):
-                colour = colours[j % len(colours)]
-                lines += axis.plot(times, np.rad2deg(values[k, :, j]), color=colour, linewidth=1.4)
-                dashes = (3.0 * j, (3.0, 3.0 * max(joints - 1, 1)))  # interleaved with the other joints'
-                for bound in (bounds[k][0][j], bounds[k][1][j]):
-                    if np.isfinite(bound):
-                        axis.axhline(np.rad2deg(bound), color=colour, linestyle=dashes, linewidth=0.9, alpha=0.8)
-            if len(via_times) <= PLOT_VIA_LINES:
-                for t, waypoint in zip(via_times, is_waypoint):
-                    axis.axvline(t, color="0.45" if waypoint else "0.75", linestyle=":",
-                                 linewidth=0.9 if waypoint else 0.6)
             axis.set_ylabel(f"{('position', *QUANTITIES)[k]} [{DEGREE_UNITS[k]}]")
-            axis.grid(alpha=0.3)
-            if k == 0:  # labels given explicitly: legend() would drop names starting with "_"
-                keys = [Line2D([], [], color="0.3", linestyle="--", linewidth=0.9)]
-                labels = ["limits (dashed, in the joint's colour)"]
-                if len(via_times) <= PLOT_VIA_LINES:
-                    keys.append(Line2D([], [], color="0.45", linestyle=":", linewidth=0.9))
-                    labels.append("waypoint times")
-                    if not is_waypoint.all():
-                        keys.append(Line2D([], [], color="0.75", linestyle=":", linewidth=0.6))
-                        labels.append("inserted via-points")
-                axis.legend(lines + keys, names + labels, ncol=min(joints + len(keys), 5), loc="lower center",
-                            bbox_to_anchor=(0.5, 1.02), fontsize=8)
-        axes[-1].set_xlabel("time [s]")
+        keys, labels = _legend_keys([column], "", "")
+        # Labels given explicitly: legend() would drop names starting with "_".
+        axes[0].legend(lines + keys, names + labels, ncol=min(trajectory.joint_count + len(keys), 5),
+                       loc="lower center", bbox_to_anchor=(0.5, 1.02), fontsize=8)
         if title:
             figure.suptitle(title)
         figure.tight_layout()
         figure.savefig(path, dpi=110)
+        plt.close(figure)
+
+
+def plot_profile_columns(columns: list[ProfileColumn], limits: JointLimits, path: Path, *, title: str = "",
+                         note: str = "", rate_hz: float = 200.0, joint_names: list[str] | None = None,
+                         points_label: str = "reference positions",
+                         levels_label: str = "reference maxima (+-)") -> None:
+    """Several trajectories side by side as PNG: one column of four profiles each (as
+    ``plot_profiles``), each row on one vertical scale so the columns compare at a glance.
+
+    ``note`` is printed under the title (plain text, wrapped by the caller); the legend names the
+    joints, the limits, the via-point lines and the reference values the columns draw
+    (``points_label``, ``levels_label``).
+    """
+    names = joint_names or list(limits.names)
+    with _plain_text_figures() as plt:
+        figure, axes = plt.subplots(4, len(columns), figsize=(7.5 * len(columns), 13), sharey="row", squeeze=False)
+        colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+        lines = [_draw_column(axes[:, c], column, limits, colours, rate_hz) for c, column in enumerate(columns)][0]
+        for k in range(4):
+            axes[k, 0].set_ylabel(f"{('position', *QUANTITIES)[k]} [{DEGREE_UNITS[k]}]")
+        keys, labels = _legend_keys(columns, points_label, levels_label)
+        heading = "\n".join(part for part in (title, note) if part)
+        below_heading = 0.995 - (0.013 * (heading.count("\n") + 1) + 0.005 if heading else 0.0)
+        if heading:
+            figure.suptitle(heading, fontsize=10, y=0.995, va="top")
+        figure.legend(lines + keys, names + labels, ncol=min(len(lines) + len(keys), 6), loc="upper center",
+                      bbox_to_anchor=(0.5, below_heading), fontsize=8)
+        figure.subplots_adjust(left=0.06, right=0.99, bottom=0.045, top=below_heading - 0.065, hspace=0.12,
+                               wspace=0.05)
+        figure.savefig(path, dpi=100)
         plt.close(figure)

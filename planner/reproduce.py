@@ -5,7 +5,10 @@ family x optimizer, with the paper's bounds [3, 5] s and without bounds,
 this runs the timing optimization and reports total time, largest
 constraint ratio, evaluations and wall time; then Tables V and VI (exact
 max and time-averaged |v|, |a|, |j|) for the paper's own durations and for
-ours, beside the numbers the paper reports.
+ours, beside the numbers the paper reports. Figure 4 (the paper's profiles,
+a plot without numbers) is recomputed from its Tables II and IV and drawn
+beside ours, with the numbers the paper does give for it: the via-points
+(Table II) at Table IV's times and the maxima it reports (Table V).
 """
 
 from __future__ import annotations
@@ -20,7 +23,7 @@ from .export import write_json
 from .kinematics import KinematicFigures, kinematic_figures
 from .limits import QUANTITIES
 from .progress import TerminalProgress
-from .report import markdown_table, plot_profiles
+from .report import ProfileColumn, markdown_table, plot_profile_columns
 from .splines import FAMILIES, get_family
 from .timing import OptimizationResult, TimingProblem, optimize
 
@@ -86,8 +89,8 @@ def write_report(runs: list[Run], folder: Path) -> None:
     via = np.deg2rad(paper.VIA_POINTS_DEG)
     limits = paper.paper_limits()
     lines = ["# The paper reproduced", "",
-             "Paper case: Table II via-points, Table III limits. All figures are exact (roots of",
-             "polynomial derivatives). Times in s, angles in degrees.", ""]
+             f'The source paper: "{paper.TITLE}". Its case: Table II via-points, Table III limits.',
+             "All figures are exact (roots of polynomial derivatives). Times in s, angles in degrees.", ""]
     # Table IV and the optimizer comparison.
     header = ["bounds", "family", "optimizer", "total time [s]", "largest ratio", "feasible", "evaluations",
               "wall time [s]"]
@@ -113,9 +116,18 @@ def write_report(runs: list[Run], folder: Path) -> None:
             table_rows.append([f"ours ({OPTIMIZER_LABELS[r.algorithm]}, bounds {_bounds_label(bounds)})",
                                *r.result.durations, r.result.total_time])
     lines += [markdown_table(header, table_rows), ""]
+    bound = speed_lower_bound_deg(paper.VIA_POINTS_DEG, get_family("hybrid").build(via, paper.DURATIONS_S).via_times)
+    reported = np.array(paper.TABLE_V_DEG["velocity"])
     lines += ["## Tables V and VI: max and time-averaged |v|, |a|, |j|", "",
               "The paper's Table V cannot be reproduced by any trajectory through Table II with its own",
-              "Table IV durations (TIMING-SPEC §5); its numbers are shown beside the exact ones.", ""]
+              "Table IV durations: a joint that moves by D between two via-points passed dt apart reaches",
+              "the speed D / dt somewhere between them (mean value theorem), and for",
+              f"{int(np.sum(reported < bound))} of the 6 joints that lower bound already exceeds the maximum speed",
+              "Table V reports. Its numbers are shown beside the exact ones.", ""]
+    lines += [markdown_table(["", *[f"J{j + 1}" for j in range(6)]], [
+        ["max |velocity| at least (Table II, Table IV times)", *bound],
+        ["max |velocity|, the paper's Table V", *reported],
+        ["Table V below the bound", *["yes" if r < b else "no" for r, b in zip(reported, bound)]]]), ""]
     block, paper_data = _figures_block("The paper's durations (Table IV), hybrid spline", paper_figures, True)
     lines += [block, ""]
     ours_data = {}
@@ -126,18 +138,66 @@ def write_report(runs: list[Run], folder: Path) -> None:
                 f"Ours, hybrid, bounds {_bounds_label(bounds)}: T = {r.result.total_time:.4f} s",
                 kinematic_figures(get_family("hybrid").build(via, r.result.durations)), False)
             lines += [block, ""]
+    figure4_lines, columns = figure4_columns(best_of.get(("hybrid", None)))
+    lines += figure4_lines
     (folder / "reproduction.md").write_text("\n".join(lines) + "\n")
     write_json(folder / "reproduction.json", {
+        "paper": paper.TITLE,
         "runs": [{"family": r.family, "bounds_s": r.bounds, "algorithm": r.algorithm,
                   "durations_s": r.result.durations, "total_time_s": r.result.total_time,
                   "max_ratio": r.result.max_ratio, "feasible": r.result.feasible,
                   "evaluations": r.result.evaluations, "wall_time_s": r.result.wall_time_s,
                   "seed": r.result.seed, "settings": r.result.settings} for r in runs],
-        "paper_durations": {"durations_s": paper.DURATIONS_S, "figures": paper_data},
+        "paper_durations": {"durations_s": paper.DURATIONS_S, "figures": paper_data,
+                            "max_velocity_lower_bound_deg_s": bound},
         "ours": ours_data,
     })
-    if ("hybrid", None) in best_of:
-        r = best_of[("hybrid", None)]
-        plot_profiles(get_family("hybrid").build(via, r.result.durations), limits, folder / "figure4.png",
-                      title=f"Figure 4 equivalent: hybrid, no bounds, {OPTIMIZER_LABELS[r.algorithm]}, "
-                            f"T = {r.result.total_time:.3f} s")
+    plot_profile_columns(
+        columns, limits, folder / FIGURE_FILE, title="The paper's Figure 4, recomputed, beside ours",
+        note=FIGURE_NOTE, joint_names=[f"J{j + 1}" for j in range(6)],
+        points_label="the paper's Table II via-points at Table IV's times",
+        levels_label="the paper's Table V maxima (+-), as reported")
+
+
+#: The Figure 4 equivalent, in the output folder.
+FIGURE_FILE = "figure4.png"
+#: What the figure shows, printed under its title.
+FIGURE_NOTE = ("The paper's Figure 4 is a plot without numbers. Left: the hybrid spline through Table II with "
+               "Table IV's durations, recomputed exactly; circles and dash-dotted lines are the numbers the paper "
+               "gives\nfor it (Table II via-points, Table V maxima). Right: ours, same spline and limits, "
+               "time-optimal without duration bounds. Dashed: Table III limits. Each row shares one scale.")
+
+
+def speed_lower_bound_deg(via_deg: np.ndarray, via_times: np.ndarray) -> np.ndarray:
+    """(J,) a lower bound on each joint's max |velocity| [deg/s] for any trajectory through ``via_deg``
+    (n, J) [deg] at ``via_times`` (n,) [s]: the largest |p_{i+1} - p_i| / (t_{i+1} - t_i) (mean value theorem)."""
+    return (np.abs(np.diff(via_deg, axis=0)) / np.diff(via_times)[:, None]).max(axis=0)
+
+
+def figure4_columns(ours: Run | None) -> tuple[list[str], list[ProfileColumn]]:
+    """The report's Figure 4 section and the figure's columns: the paper's Table IV durations with
+    its Table II and Table V numbers, then ``ours`` (the best hybrid run without bounds) if any."""
+    via = np.deg2rad(paper.VIA_POINTS_DEG)
+    hybrid = get_family("hybrid")
+    theirs = hybrid.build(via, paper.DURATIONS_S)
+    levels = np.deg2rad(np.array([paper.TABLE_V_DEG[quantity] for quantity in QUANTITIES]))
+    columns = [ProfileColumn(theirs, f"The paper's Table IV durations (bounds [3, 5] s), T = {theirs.total_time:.3f} s",
+                             points=(theirs.via_times, via), levels=levels)]
+    lines = ["## Figure 4: profiles of the hybrid spline", "",
+             f"`{FIGURE_FILE}` shows position, velocity, acceleration and jerk of every joint. The paper's",
+             "Figure 4 is a plot without numbers, so its profiles are recomputed here from the paper's Table II",
+             "via-points and Table IV durations (left column), with the numbers the paper does give for them",
+             "drawn on top: the Table II via-points at the times Table IV puts them, and the Table V maxima",
+             "(as plus and minus lines), which the recomputed profiles do not match: the tables above compare",
+             "them."]
+    if ours is None:
+        lines += ["No hybrid run without bounds was feasible, so the figure shows the paper's column only.", ""]
+        return lines, columns
+    trajectory = hybrid.build(via, ours.result.durations)
+    columns.append(ProfileColumn(trajectory, f"Ours: {OPTIMIZER_LABELS[ours.algorithm]}, no bounds, "
+                                             f"T = {trajectory.total_time:.3f} s"))
+    lines += ["The right column is ours: the same spline and limits, durations from",
+              f"{OPTIMIZER_LABELS[ours.algorithm]} without bounds (T = {trajectory.total_time:.4f} s against the",
+              f"paper's {theirs.total_time:.4f} s).",
+              "Dashed lines are the Table III limits; each row of the figure has one vertical scale.", ""]
+    return lines, columns

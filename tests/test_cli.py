@@ -84,7 +84,7 @@ def test_reproduce_quick_writes_tables_and_figure(tmp_path):
     text = (out / "reproduction.md").read_text()
     assert "| [3, 5] s | hybrid | CS (ours: repair + NLP) | 27.0000 |" in text
     assert "| [3, 5] s | hybrid | CS, the paper's Table IV | 38.3114 | 0.4013 |" in text
-    assert "| max |velocity|, paper reports | 16.920 |" in text
+    assert "| max \\|velocity\\|, paper reports | 16.920 |" in text
     data = json.loads((out / "reproduction.json").read_text())
     unbounded = [r for r in data["runs"] if r["family"] == "hybrid" and r["bounds_s"] is None]
     assert unbounded and all(r["feasible"] for r in unbounded)

@@ -1,4 +1,5 @@
 import logging
+import re
 import warnings
 
 import numpy as np
@@ -6,7 +7,7 @@ import pytest
 
 from planner import get_family
 from planner.limits import JointLimits
-from planner.report import markdown_table, plot_profiles
+from planner.report import markdown_cell, markdown_table, plot_profiles
 
 #: Names that are markup somewhere (mathtext, TeX, legend's hidden "_" labels, printf) or lack glyphs in the font.
 AWKWARD_NAMES = ["$x^2$", "$\\frac{$", "$x^$ and $y_$", "\\frac{", "_base", "100%", "a_b^c", "关节一", "مفصل", "😀 wrist", "a/b c", "$", ""]
@@ -65,3 +66,47 @@ def test_a_long_trajectory_is_drawn_from_a_bounded_number_of_samples(tmp_path, m
     report.plot_profiles(trajectory, JointLimits.create(1, velocity=[1.0]), tmp_path / "long.png")
     assert (tmp_path / "long.png").stat().st_size > 10_000
     assert drawn and drawn[0] * trajectory.total_time <= report.PLOT_SAMPLES + 1
+
+
+def table_cells(row: str) -> list[str]:
+    """The cells of one Markdown table row as GitHub splits them: at every pipe not escaped by a backslash."""
+    parts = re.split(r"(?<!\\)\|", row.strip())
+    assert parts[0] == "" and parts[-1] == "", f"a table row starts and ends with a pipe: {row!r}"
+    return [part.strip() for part in parts[1:-1]]
+
+
+def markdown_tables(text: str) -> list[list[str]]:
+    """Every table of a Markdown text: runs of consecutive lines starting with a pipe."""
+    tables, current = [], []
+    for line in text.splitlines() + [""]:
+        if line.startswith("|"):
+            current.append(line)
+        elif current:
+            tables.append(current)
+            current = []
+    return tables
+
+
+def assert_tables_render(text: str) -> None:
+    """Every table has a header, a delimiter row of as many columns, and rows of as many cells."""
+    tables = markdown_tables(text)
+    assert tables, "no Markdown table found"
+    for table in tables:
+        header = table_cells(table[0])
+        assert len(table) >= 2 and re.fullmatch(r"\|(\s*:?-+:?\s*\|)+", table[1].strip()), table[:2]
+        assert len(table_cells(table[1])) == len(header), table[:2]
+        for row in table[2:]:
+            assert len(table_cells(row)) == len(header), f"{row!r} breaks the table headed {table[0]!r}"
+
+
+@pytest.mark.parametrize("text", ["max |v|", "|", "a | b", "\\|already escaped\\|", "two\nlines", "x\r\ny", "", "`|`"])
+def test_any_cell_text_keeps_the_table_intact(text):
+    table = markdown_table(["label", text], [[text, 1.0], ["row", text], [text, text]])
+    assert_tables_render(table)
+    assert len(table.splitlines()) == 5
+
+
+def test_pipes_are_escaped_once():
+    assert markdown_cell("max |v|") == "max \\|v\\|"
+    assert markdown_cell("max \\|v\\|") == "max \\|v\\|"
+    assert markdown_cell(float("nan")) == "-"
