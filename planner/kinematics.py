@@ -1,4 +1,4 @@
-"""Exact kinematic figures of piecewise polynomials (TIMING-SPEC §3), batched.
+"""Exact kinematic figures of piecewise polynomials (README, "The maths": exact limit checks), batched.
 
 Everything here works on coefficients (B, S, J, D+1) in local time with
 durations (B, S), and is exact up to floating point: extrema come from the
@@ -378,6 +378,6 @@ def kinematic_figures(trajectory: PiecewisePolynomial) -> KinematicFigures:
 
 
 def batch_scale_factors(coefficients: np.ndarray, durations: np.ndarray, limits: JointLimits):
-    """Constraint ratios (B, 3, J) and the time-scale factors s* (B,) of spec §4."""
+    """Constraint ratios (B, 3, J) and the time-scale factors s* (B,) of the time-scaling lemma."""
     ratios = limits.ratios(max_abs(coefficients, durations))
     return ratios, time_scale_factor(ratios)

@@ -1,4 +1,4 @@
-"""Piecewise polynomials and the via-point spline families of TIMING-SPEC §2.
+"""Piecewise polynomials and the via-point spline families (README, "The maths").
 
 Conventions: coefficients in local time ``tau`` in ``[0, h_k]`` of each
 segment, lowest order first, shaped (segments, joints, degree + 1), or
@@ -9,7 +9,7 @@ Families:
 
 * ``cubic``: cubic spline with two virtual knots (Lin, Chang & Luh), S = n + 1.
 * ``hybrid``: ``cubic`` with its first and last segment replaced by the
-  7th-order Hermite polynomials of spec §2.2 (the paper's method), S = n + 1.
+  7th-order Hermite polynomials of the paper's method, S = n + 1.
 * ``quintic``: interpolating quintic B-spline (Gasparetto & Zanotto), S = n - 1.
 """
 
@@ -206,7 +206,7 @@ class SplineFamily:
 
 
 class CubicFamily(SplineFamily):
-    """Cubic spline with virtual knots after the first and before the last via-point (spec §2.1).
+    """Cubic spline with virtual knots after the first and before the last via-point.
 
     Knots y_0..y_{m-1}, m = n + 2, with y_1 and y_{m-2} free. With knot
     accelerations M_k (M_0 = M_{m-1} = 0), segment k on [0, h_k] is
@@ -299,7 +299,7 @@ def hermite7(start: np.ndarray, end: np.ndarray, h: np.ndarray) -> np.ndarray:
 
 
 class HybridFamily(CubicFamily):
-    """The paper's method (spec §2.2): the ``cubic`` spline with 7th-order end segments.
+    """The paper's method: the ``cubic`` spline with 7th-order end segments.
 
     Segment 0 becomes the 7th-order polynomial from (p_0, 0, 0, 0) to the cubic's
     state (q, q', q'', q''') at tau = h_0, and segment S-1 the one from the
@@ -307,9 +307,8 @@ class HybridFamily(CubicFamily):
     C2 everywhere with zero velocity, acceleration and jerk at both ends.
 
     Note: the state matched includes the jerk of the cubic's own end segment,
-    so at the virtual knots jerk jumps exactly as the cubic spline's does. The
-    spec's "C3 at the virtual knots" would need the neighbouring segment's
-    jerk instead; its §5 reference numbers come from this construction.
+    so at the virtual knots jerk jumps exactly as the cubic spline's does (C3
+    there would need the neighbouring segment's jerk instead).
     """
 
     name = "hybrid"
@@ -343,7 +342,7 @@ def _cubic_state(coefficients: np.ndarray, tau: np.ndarray) -> np.ndarray:
 
 
 class QuinticFamily(SplineFamily):
-    """Interpolating quintic B-spline with zero end velocity and acceleration (spec §2.3).
+    """Interpolating quintic B-spline with zero end velocity and acceleration.
 
     Knots at the via-points (S = n - 1); built by scipy's ``make_interp_spline``
     and converted to per-segment power-basis coefficients (the Taylor

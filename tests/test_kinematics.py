@@ -9,7 +9,8 @@ from planner.kinematics import batch_scale_factors, column_roots, max_abs
 
 from conftest import via_and_durations
 
-# TIMING-SPEC §5: hybrid spline, Table II via-points, Table IV durations [deg/s^k].
+# Reference maxima, computed independently of this code: hybrid spline, Table II via-points, Table IV
+# durations [deg/s^k].
 SPEC_MAX = np.array([
     [32.110, 22.713, 33.579, 49.996, 27.922, 20.286],
     [12.854, 11.525, 17.546, 28.088, 15.536, 8.544],

@@ -10,7 +10,7 @@ from conftest import via_and_durations
 
 
 def dense_cubic(via: np.ndarray, h: np.ndarray) -> np.ndarray:
-    """Oracle: the 4S x 4S system of TIMING-SPEC §2.1 for one joint, solved densely.
+    """Oracle: the 4S x 4S system of the cubic spline's conditions for one joint, solved densely.
 
     Unknowns a_k0..a_k3 of q_k(tau) = sum a_ki tau^i on each segment.
     """
