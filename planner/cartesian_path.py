@@ -148,7 +148,8 @@ class StraightPath:
 
 def follow_straight_lines(robot: Robot, poses: list[pin.SE3], waypoint_q: np.ndarray,
                           time_via_points: Callable[[np.ndarray], tuple[PiecewisePolynomial, Timing]],
-                          tolerance_m: float, tolerance_rad: float) -> tuple[StraightPath, Timing]:
+                          tolerance_m: float, tolerance_rad: float,
+                          note: Callable[[str], None] = lambda line: None) -> tuple[StraightPath, Timing]:
     """Insert poses until the timed trajectory's tool stays on the straight segments.
 
     Args:
@@ -156,6 +157,7 @@ def follow_straight_lines(robot: Robot, poses: list[pin.SE3], waypoint_q: np.nda
         time_via_points: times (m, J) via-points; returns the trajectory and whatever
             else the caller keeps (returned with the path, for the final via-points).
         tolerance_m, tolerance_rad: the largest distance [m] and angle [rad] allowed.
+        note: told one line per round: how far the tool strays and what happens next.
 
     Raises:
         IKError: a segment that leaves the reachable workspace, or that no joint
@@ -172,6 +174,10 @@ def follow_straight_lines(robot: Robot, poses: list[pin.SE3], waypoint_q: np.nda
         trajectory, timing = time_via_points(via)
         distance, angle, per_distance, per_angle = tool_deviation(robot, trajectory, poses, waypoint_via)
         exceeded = (distance > MARGIN * tolerance_m) | (angle > MARGIN * tolerance_rad)
+        note(f"straight-line round {rounds}: {int(counts.sum()) - len(counts)} poses inserted, the tool strays up "
+             f"to {1e3 * distance.max():.3g} mm and {np.rad2deg(angle.max()):.3g} deg"
+             + (f"; inserting a pose in each of the {int(exceeded.sum())} intervals beyond the tolerances" if exceeded.any()
+                else ", within the tolerances"))
         if not exceeded.any():
             return StraightPath(via, waypoint_via, counts - 1, per_distance, per_angle, rounds), timing
         if rounds == MAX_ROUNDS:

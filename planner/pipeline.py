@@ -330,7 +330,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
     path = None
     if poses is not None and task.path.mode == "linear":
         path, (problem, result) = follow_straight_lines(robot, poses, via, time_via_points, task.path.tolerance_m,
-                                                        task.path.tolerance_rad)
+                                                        task.path.tolerance_rad, progress.note)
         via = path.via_points
         trajectory = problem.trajectory(result.durations)
     else:

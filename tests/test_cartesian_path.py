@@ -167,3 +167,12 @@ def test_a_straight_path_needing_too_many_via_points_is_refused_naming_the_toler
     with pytest.raises(TaskError, match=r"^path\.tolerance_m: following the straight lines within 1 mm and 0\.5 deg "
                                         r"needs more than 8 via-points"):
         plan(load_task(linear_ur5_task(tmp_path)))
+
+
+def test_linear_mode_says_what_each_round_does(tmp_path, capsys):
+    from planner.cli import main
+    assert main(["plan", str(linear_ur5_task(tmp_path)), "--out", str(tmp_path / "out")]) == 0
+    rounds = [line for line in capsys.readouterr().out.splitlines() if line.startswith("straight-line round")]
+    assert rounds[0].startswith("straight-line round 1: 0 poses inserted, the tool strays up to 144 mm")
+    assert all("inserting a pose in each of the" in line for line in rounds[:-1])
+    assert rounds[-1].endswith("within the tolerances") and f"round {len(rounds)}:" in rounds[-1]
