@@ -151,3 +151,25 @@ def test_turn_variants_cover_every_turn_in_range(puma):
     np.testing.assert_allclose(variants[:, :5], np.rad2deg(np.tile(q[:5], (2, 1))))
     narrow = puma.limits.with_overrides(lower=np.deg2rad([20, -225, -45, -110, -100, -266]))
     assert len(turn_variants(puma, q, narrow)) == 0  # joint 1 at 10 deg is below 20 deg, in every turn
+
+
+def test_continuous_rule_takes_the_turn_nearest_the_previous_configuration(monkeypatch):
+    """Whatever 2 pi representative the solver returns, the continuous rule keeps each joint within
+    pi of the previous configuration where the ranges allow (UR5: +-360 deg)."""
+    import dataclasses
+
+    import planner.ik as ik
+    robot = Robot.from_example_robot_data("ur5", "tool0")
+    solve = ik.solve_pose
+
+    def wrapped_solve(robot, target, seed, *args, **kwargs):  # a solver that returns angles in [-pi, pi)
+        solution = solve(robot, target, seed, *args, **kwargs)
+        return dataclasses.replace(solution, q=(solution.q + np.pi) % (2 * np.pi) - np.pi)
+
+    monkeypatch.setattr(ik, "solve_pose", wrapped_solve)
+    path = np.deg2rad([[200, -80, 100, -110, 250, 300], [210, -75, 95, -100, 260, 330],
+                       [220, -70, 90, -90, 270, 350]])
+    poses = [robot.forward_kinematics(q) for q in path]
+    solutions = solve_waypoints(robot, poses, start=path[0], branch="continuous", seed=0)
+    np.testing.assert_allclose([s.q for s in solutions], path, atol=1e-6)
+    assert all(s.jump < np.deg2rad(60) for s in solutions)

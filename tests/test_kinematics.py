@@ -152,3 +152,20 @@ def test_bad_limits(kwargs, message):
     from planner import InputError
     with pytest.raises(InputError, match=message):
         JointLimits.create(3, **kwargs)
+
+
+@pytest.mark.parametrize("excess", [1e-6, 0.01, 0.5])
+def test_a_limit_exceeded_by_any_margin_is_a_violation(paper_via, excess):
+    """Limits at the exact maxima hold; limits a fraction below them are each reported."""
+    trajectory = get_family("hybrid").build(paper_via, np.full(9, 3.0))
+    figures = kinematic_figures(trajectory)
+    exact = JointLimits.create(6, lower=figures.position_min, upper=figures.position_max,
+                               velocity=figures.max_abs[0], acceleration=figures.max_abs[1], jerk=figures.max_abs[2])
+    assert figures.violations(exact) == []
+    shrink = 1 - excess
+    centre = (figures.position_min + figures.position_max) / 2
+    half = (figures.position_max - figures.position_min) / 2 * shrink
+    tight = JointLimits.create(6, lower=centre - half, upper=centre + half, velocity=figures.max_abs[0] * shrink,
+                               acceleration=figures.max_abs[1] * shrink, jerk=figures.max_abs[2] * shrink)
+    lines = figures.violations(tight)
+    assert len(lines) == 5 * 6  # three magnitudes and both sides of the range, every joint

@@ -220,3 +220,33 @@ def test_solver_reports_its_rounds(paper_via, paper_limits):
     outcome = TimingNLP(problem, start).solve(start)
     assert outcome.rounds >= 1 and outcome.iterations > 0 and outcome.status == "Solve_Succeeded"
     assert outcome.durations.sum() < start.sum()
+
+
+@pytest.mark.parametrize("family", ["cubic", "hybrid", "quintic"])
+def test_time_jerk_nlp_matches_an_independent_search_where_the_shape_matters(paper_via, paper_limits, family):
+    """With a heavy jerk weight the limits are slack and the optimum's shape is the jerk energy's, not
+    the time-optimal one: multi-start SLSQP (finite differences on the objective) finds the same value,
+    and uniform scaling is stationary there (K_t T = 5 K_j E, as the energy scales like s^-5)."""
+    k_t, k_j = 1.0, 10.0
+    problem = TimingProblem(paper_via, family, paper_limits, objective="time-jerk", weights=(k_t, k_j))
+    nlp, independent = optimize(problem, "nlp"), optimize(problem, "slsqp")
+    assert nlp.feasible and nlp.max_ratio < 0.5
+    assert nlp.objective == pytest.approx(independent.objective, rel=1e-6)
+    energy = kinematic_figures(problem.trajectory(nlp.durations)).jerk_energy.sum()
+    assert k_t * nlp.total_time == pytest.approx(5 * k_j * energy, rel=1e-6)
+
+
+def test_starts_agree_only_within_the_agreement_gap():
+    from planner.timing.result import AGREEMENT, OptimizationResult, StartReport
+
+    def result(*objectives, feasible=True):
+        starts = [StartReport(f"start {i}", value, feasible, 10, 1, "Solve_Succeeded", 0)
+                  for i, value in enumerate(objectives)]
+        return OptimizationResult("nlp", np.ones(1), 1.0, 1.0, np.zeros((3, 1)), True, 1, 0.0, [], "", None,
+                                  starts=starts)
+
+    assert result(10.0, 10.0 * (1 + AGREEMENT / 2)).starts_agree
+    assert not result(10.0, 10.0 * (1 + 2 * AGREEMENT)).starts_agree
+    assert not result(10.0, 10.2).starts_agree
+    assert not result(10.0, 10.0, feasible=False).starts_agree
+    assert result().starts_agree is None

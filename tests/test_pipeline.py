@@ -247,3 +247,17 @@ def test_a_urdf_velocity_limit_of_zero_is_a_placeholder_the_task_must_replace(tm
         plan(parse_task(data))
     data["limits"] = {"velocity_deg_s": [100] * 6}
     assert plan(parse_task(data)).summary()["feasible"]
+
+
+def test_summary_feasible_is_the_exact_check_of_the_planned_limits():
+    from dataclasses import replace
+    result = plan(PAPER_JOINT)
+    assert result.summary()["feasible"] is True
+    figures = result.figures
+    for order, quantity in enumerate(("velocity", "acceleration", "jerk")):
+        # a limit 0.1 % below the trajectory's exact maximum of one joint: the summary must say so
+        j = int(np.argmax(figures.max_abs[order] / getattr(result.limits, quantity)))
+        values = getattr(result.limits, quantity).copy()
+        values[j] = figures.max_abs[order, j] * 0.999
+        tighter = replace(result, limits=result.limits.with_overrides(**{quantity: values}))
+        assert tighter.summary()["feasible"] is False

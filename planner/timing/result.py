@@ -87,7 +87,7 @@ class OptimizationResult:
         if not self.starts:
             return None
         values = np.array([s.objective if s.feasible else np.inf for s in self.starts])
-        return bool(np.all(values <= values.min() * (1 + AGREEMENT)))
+        return bool(np.isfinite(values).all() and np.all(values <= values.min() * (1 + AGREEMENT)))
 
     @property
     def solver_iterations(self) -> int:
