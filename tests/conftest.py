@@ -32,3 +32,48 @@ def via_and_durations(draw, family_name: str, max_points: int = 7, max_joints: i
     count = get_family(family_name).segment_count(n)
     durations = rng.uniform(0.2, 5.0, count)
     return via, durations
+
+
+def dense_extremes(trajectory, per_segment: int = 400):
+    """Max |q^(d)| (3, J) and position min, max (J,) from samples in every segment: independent of the
+    exact root-finding the planner uses."""
+    knots = trajectory.knot_times
+    times = np.concatenate([np.linspace(a, b, per_segment) for a, b in zip(knots[:-1], knots[1:]) if b > a])
+    positions = trajectory.evaluate(times)
+    largest = np.stack([np.abs(trajectory.evaluate(times, order)).max(axis=0) for order in (1, 2, 3)])
+    return largest, positions.min(axis=0), positions.max(axis=0)
+
+
+def assert_plan_holds(result) -> None:
+    """Independent checks of a feasible plan: every limit by dense sampling, the exact and reported
+    figures against the samples, the duration floor and bounds, finite coefficients, lower bounds
+    on the total time that any trajectory through the via-points obeys."""
+    from planner.export import coefficients_document
+    from planner.limits import rest_to_rest_time
+
+    trajectory, limits, summary = result.trajectory, result.limits, result.summary()
+    assert summary["feasible"] is True
+    largest, low, high = dense_extremes(trajectory)
+    assert np.all(largest <= limits.magnitudes * (1 + 1e-6))
+    assert np.all(low >= limits.lower - 1e-9) and np.all(high <= limits.upper + 1e-9)
+    assert np.all(largest <= result.figures.max_abs * (1 + 1e-9) + 1e-12)
+    assert np.all(largest >= result.figures.max_abs * (1 - 1e-3) - 1e-12)
+    reported = np.array([summary["max_abs"][key] for key in ("velocity_deg_s", "acceleration_deg_s2", "jerk_deg_s3")])
+    np.testing.assert_allclose(reported, np.rad2deg(result.figures.max_abs), rtol=1e-9, atol=1e-9)
+    # No segment shorter than the floor (merged repeated via-points apart), none beyond the bounds.
+    moving = trajectory.durations[trajectory.durations > 0]
+    assert moving.min() >= result.task.min_segment_s * (1 - 1e-9)
+    bounds = result.task.optimizer["bounds"]
+    if bounds is not None:
+        assert moving.min() >= bounds[0] * (1 - 1e-9) and moving.max() <= bounds[1] * (1 + 1e-9)
+    document = coefficients_document(trajectory)
+    normalized = np.asarray(document["normalized_coefficients"])
+    assert np.all(np.isfinite(trajectory.coefficients)) and np.all(np.isfinite(normalized))
+    motion = float(np.ptp(result.via_points, axis=0).max())
+    assert np.abs(normalized[..., 1:]).max() <= 1e3 * motion
+    # The trajectory passes through every via-point, in order, at its knot.
+    via = result.via_points
+    np.testing.assert_allclose(trajectory.evaluate(np.asarray(summary["via_times_s"])), via, atol=1e-9)
+    steps = np.abs(np.diff(via, axis=0))
+    assert trajectory.total_time >= (steps / limits.velocity).max(axis=1).sum() * (1 - 1e-9)
+    assert trajectory.total_time >= rest_to_rest_time(np.abs(via[-1] - via[0]), limits).max() * (1 - 1e-9)

@@ -7,8 +7,7 @@ import pytest
 import yaml
 
 import planner
-from planner.export import coefficients_document
-from planner.limits import rest_to_rest_time
+from conftest import assert_plan_holds
 from planner.pipeline import plan
 from planner.task import parse_task
 
@@ -25,16 +24,6 @@ def in_degrees(task: dict) -> dict:
     return task
 
 
-def dense_extremes(trajectory, per_segment: int = 400):
-    """Max |q^(d)| (3, J) and position min, max (J,) from samples in every segment: independent of the
-    exact root-finding the planner uses."""
-    knots = trajectory.knot_times
-    times = np.concatenate([np.linspace(a, b, per_segment) for a, b in zip(knots[:-1], knots[1:]) if b > a])
-    positions = trajectory.evaluate(times)
-    largest = np.stack([np.abs(trajectory.evaluate(times, order)).max(axis=0) for order in (1, 2, 3)])
-    return largest, positions.min(axis=0), positions.max(axis=0)
-
-
 @pytest.mark.parametrize("case", CASES, ids=[case["name"] for case in CASES])
 def test_edge_case(case):
     task_data = in_degrees(case["task"]) if case.get("radians") else case["task"]
@@ -45,27 +34,8 @@ def test_edge_case(case):
         assert "\n" not in str(info.value) and len(str(info.value)) <= 600
         return
     result = plan(parse_task(task_data, name="edge", source=SUITE))
-    trajectory, limits = result.trajectory, result.limits
-    summary = result.summary()
-    assert summary["feasible"] is True
-    # Every limit holds when sampled densely, and the exact maxima are what the samples approach.
-    largest, low, high = dense_extremes(trajectory)
-    assert np.all(largest <= limits.magnitudes * (1 + 1e-6))
-    assert np.all(low >= limits.lower - 1e-9) and np.all(high <= limits.upper + 1e-9)
-    assert np.all(largest <= result.figures.max_abs * (1 + 1e-9) + 1e-12)
-    assert np.all(largest >= result.figures.max_abs * (1 - 1e-3) - 1e-12)
-    # No segment shorter than the floor; coefficients finite and, normalised, of the motion's size.
-    assert trajectory.durations.min() >= result.task.min_segment_s * (1 - 1e-9)
-    document = coefficients_document(trajectory)
-    normalized = np.asarray(document["normalized_coefficients"])
-    assert np.all(np.isfinite(trajectory.coefficients)) and np.all(np.isfinite(normalized))
-    motion = float(np.ptp(result.via_points, axis=0).max())
-    assert np.abs(normalized[..., 1:]).max() <= 1e3 * motion
-    # The total time respects lower bounds that any trajectory through the via-points obeys.
-    via = result.via_points
-    steps = np.abs(np.diff(via, axis=0))
-    assert trajectory.total_time >= (steps / limits.velocity).max(axis=1).sum() * (1 - 1e-9)
-    assert trajectory.total_time >= rest_to_rest_time(np.abs(via[-1] - via[0]), limits).max() * (1 - 1e-9)
+    trajectory = result.trajectory
+    assert_plan_holds(result)
     if "total_time_s" in expect:
         low_time, high_time = expect["total_time_s"]
         assert low_time <= trajectory.total_time <= high_time
