@@ -9,22 +9,25 @@ from __future__ import annotations
 
 import importlib
 
-from .errors import (IKError, InfeasibleError, InputError, OutputError, PlannerError, RecordingError, RobotError,
-                     TaskError, ViewerError)
+from .errors import (IKError, InfeasibleError, InputError, MissingLimitError, OutputError, PlannerError,
+                     RecordingError, RobotError, RobotFileError, TaskError, UnknownFrameError, UnknownRobotError,
+                     UnsupportedRobotError, ViewerError)
 
 #: public name -> the module that defines it
 _LAZY = {
     "KinematicFigures": ".kinematics", "kinematic_figures": ".kinematics",
     "JointLimits": ".limits", "time_scale_factor": ".limits",
     "FAMILIES": ".splines", "PiecewisePolynomial": ".splines", "SplineFamily": ".splines", "get_family": ".splines",
-    "Robot": ".robot", "Task": ".task", "load_task": ".task", "make_task": ".task", "pose_entry": ".task", "PlanResult": ".pipeline", "plan": ".pipeline",
+    "Robot": ".robot", "Task": ".task", "load_task": ".task", "make_task": ".task", "pose_entry": ".task",
+    "PlanResult": ".pipeline", "plan": ".pipeline",
 }
 
 __all__ = [
-    "FAMILIES", "IKError", "InfeasibleError", "InputError", "JointLimits", "KinematicFigures", "OutputError",
-    "PiecewisePolynomial", "PlanResult", "PlannerError", "RecordingError", "Robot", "RobotError", "SplineFamily",
-    "Task", "TaskError", "ViewerError", "get_family", "kinematic_figures", "load_task", "make_task", "plan", "pose_entry",
-    "time_scale_factor",
+    "FAMILIES", "IKError", "InfeasibleError", "InputError", "JointLimits", "KinematicFigures", "MissingLimitError",
+    "OutputError", "PiecewisePolynomial", "PlanResult", "PlannerError", "RecordingError", "Robot", "RobotError",
+    "RobotFileError", "SplineFamily", "Task", "TaskError", "UnknownFrameError", "UnknownRobotError",
+    "UnsupportedRobotError", "ViewerError", "get_family", "kinematic_figures", "load_task", "make_task", "plan",
+    "pose_entry", "time_scale_factor",
 ]
 
 

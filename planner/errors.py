@@ -79,9 +79,55 @@ class InfeasibleError(PlannerError):
 
 
 class RobotError(PlannerError):
-    """Unknown robot, unreadable URDF, unknown frame, or missing robot limits."""
+    """A robot that cannot be planned for; the subclasses tell the cases apart."""
 
     exit_code = 2
+
+
+class UnknownRobotError(RobotError):
+    """No example-robot-data robot of that name; ``known`` lists the names there are."""
+
+    def __init__(self, message: str, *, name: object, known: tuple[str, ...]):
+        self.name = name
+        self.known = known
+        super().__init__(message)
+
+
+class UnknownFrameError(RobotError):
+    """The robot has no frame of that name; ``frames`` lists the frames it has."""
+
+    def __init__(self, message: str, *, frame: object, frames: tuple[str, ...]):
+        self.frame = frame
+        self.frames = frames
+        super().__init__(message)
+
+
+class RobotFileError(RobotError):
+    """A URDF, a mesh it names, or a ``.limits.yaml`` file that cannot be read or is malformed
+    (``path``: the file), or an example-robot-data model that cannot be loaded."""
+
+    def __init__(self, message: str, *, path: object = None):
+        self.path = path
+        super().__init__(message)
+
+
+class UnsupportedRobotError(RobotError):
+    """A robot the planner does not plan for: a floating base, a joint of another kind than
+    single-axis revolute (``joint``: its name), a tool frame no joint moves."""
+
+    def __init__(self, message: str, *, joint: str | None = None):
+        self.joint = joint
+        super().__init__(message)
+
+
+class MissingLimitError(RobotError):
+    """A joint without a limit the planner needs (``quantity``); ``key`` is the task key to give it."""
+
+    def __init__(self, message: str, *, joint: str, quantity: str, key: str):
+        self.joint = joint
+        self.quantity = quantity
+        self.key = key
+        super().__init__(message)
 
 
 class IKError(PlannerError):

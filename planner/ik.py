@@ -56,6 +56,7 @@ import pinocchio as pin
 from .analytic_ik import Solver, analytic_solver
 from .errors import IKError, InputError
 from .limits import JointLimits, rest_to_rest_time
+from .read_only import freeze_arrays
 from .robot import Robot
 
 TOLERANCE = 1e-10
@@ -113,6 +114,9 @@ class IKSolution:
     solutions: int = 1
     chosen: int = 0
     margin_deg: float = math.inf
+
+    def __post_init__(self):
+        freeze_arrays(self)
 
     @property
     def residual(self) -> float:

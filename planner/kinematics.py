@@ -20,6 +20,7 @@ from math import comb
 import numpy as np
 
 from .limits import QUANTITIES, JointLimits, in_degrees, time_scale_factor
+from .read_only import freeze_arrays
 from .splines import PiecewisePolynomial, derivative_coefficients, polyval, powers
 
 _IMAGINARY_TOLERANCE = 1e-7
@@ -343,6 +344,9 @@ class KinematicFigures:
     position_max: np.ndarray
     jerk_energy: np.ndarray
     total_time: float
+
+    def __post_init__(self):
+        freeze_arrays(self)
 
     def ratios(self, limits: JointLimits) -> np.ndarray:
         """(3, J) constraint ratios against ``limits``."""

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import InputError
+from .read_only import freeze_arrays
 
 #: Names of the derivative orders 1..3, as used in ratios, reports and task files.
 QUANTITIES = ("velocity", "acceleration", "jerk")
@@ -76,6 +77,7 @@ class JointLimits:
         object.__setattr__(self, "names", names)
         for name in ("lower", "upper", *QUANTITIES):
             object.__setattr__(self, name, _limit_vector(name, getattr(self, name), joints, np.inf))
+        freeze_arrays(self)
         for order, name in enumerate(QUANTITIES, start=1):
             values = getattr(self, name)
             bad = np.flatnonzero(values <= 0)

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .cartesian_path import StraightPath, follow_straight_lines, tool_deviation
-from .errors import IKError, InfeasibleError, PlannerError, RobotError, TaskError
+from .errors import IKError, InfeasibleError, MissingLimitError, PlannerError, TaskError
 from .ik import IKSolution, pose_from_position_quaternion, solve_waypoints
 from .export import coefficients_document, write_json, write_trajectory_csv
 from .outputs import output_folder
@@ -198,15 +198,17 @@ def robot_limits(robot: Robot, task: Task) -> JointLimits:
     """The robot's limits with the task's overrides; acceleration and jerk limits must exist."""
     check_limit_counts(task.limits, robot.dof, f"for robot {robot.name!r}")
     if robot.placeholder_velocity and task.limits.get("velocity") is None:
-        raise RobotError(f"robot {robot.name!r} gives joint {robot.placeholder_velocity[0]} a velocity limit of 0 "
-                         f"in its URDF (a placeholder: the joint could not move); give limits.velocity_deg_s "
-                         f"in the task")
+        raise MissingLimitError(f"robot {robot.name!r} gives joint {robot.placeholder_velocity[0]} a velocity limit of "
+                                f"0 in its URDF (a placeholder: the joint could not move); give limits.velocity_deg_s "
+                                f"in the task", joint=robot.placeholder_velocity[0], quantity="velocity",
+                                key="limits.velocity_deg_s")
     limits = robot.limits.with_overrides(names=tuple(robot.joint_names), **task.limits)
     for quantity, yaml_key in (("acceleration", "acceleration_deg_s2"), ("jerk", "jerk_deg_s3")):
         missing = np.flatnonzero(~np.isfinite(getattr(limits, quantity)))
         if missing.size:
-            raise RobotError(f"robot {robot.name!r} has no {quantity} limit for joint {limits.names[missing[0]]}; "
-                             f"give limits.{yaml_key} in the task")
+            raise MissingLimitError(f"robot {robot.name!r} has no {quantity} limit for joint {limits.names[missing[0]]}; "
+                                    f"give limits.{yaml_key} in the task", joint=limits.names[missing[0]],
+                                    quantity=quantity, key=f"limits.{yaml_key}")
     return limits
 
 

@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from .errors import RobotError, TaskError, shown
+from .errors import (RobotError, RobotFileError, TaskError, UnknownFrameError, UnknownRobotError,
+                     UnsupportedRobotError, shown)
 from .native_output import stderr_captured
 from .limits import JointLimits
 from .yaml_input import read_yaml
@@ -96,10 +97,10 @@ class Robot:
         """
         path = Path(path)
         if not path.is_file():  # a device such as /dev/zero would be read without end
-            raise RobotError(f"cannot load URDF {path}: not an existing regular file")
+            raise RobotFileError(f"cannot load URDF {path}: not an existing regular file", path=path)
         if path.stat().st_size > MAX_URDF_BYTES:
-            raise RobotError(f"cannot load URDF {path}: larger than {MAX_URDF_BYTES >> 20} MiB "
-                             f"(a robot description, its meshes apart, is well under 1 MiB)")
+            raise RobotFileError(f"cannot load URDF {path}: larger than {MAX_URDF_BYTES >> 20} MiB "
+                                 f"(a robot description, its meshes apart, is well under 1 MiB)", path=path)
         with stderr_captured() as parser_log:
             try:
                 model = pin.buildModelFromUrdf(str(path))
@@ -108,7 +109,8 @@ class Robot:
             else:
                 failure = None
         if failure is not None:
-            raise RobotError(f"cannot load URDF {path}: {_first_line(str(failure))}{_detail(parser_log)}") from None
+            raise RobotFileError(f"cannot load URDF {path}: {_first_line(str(failure))}{_detail(parser_log)}",
+                                 path=path) from None
         _check_meshes(path, package_dirs)
         extra = _read_limit_file(path.with_suffix(".limits.yaml"), model)
         return cls._build(model.name or path.stem, model, tool_frame, path, tuple(package_dirs), extra)
@@ -118,7 +120,8 @@ class Robot:
         """An example-robot-data robot by name (``ur5``, ``panda``, ...)."""
         from example_robot_data.robots_loader import ROBOTS
         if not isinstance(name, str) or name not in ROBOTS:
-            raise RobotError(f"unknown robot {shown(name)}; example-robot-data has: {', '.join(sorted(ROBOTS))}")
+            raise UnknownRobotError(f"unknown robot {shown(name)}; example-robot-data has: {', '.join(sorted(ROBOTS))}",
+                                    name=name, known=tuple(sorted(ROBOTS)))
         with stderr_captured() as loader_log:
             try:
                 loader = ROBOTS[name]()
@@ -128,10 +131,10 @@ class Robot:
             else:
                 failure = None
         if failure is not None:
-            raise RobotError(f"robot {name!r} of example-robot-data cannot be loaded with Pinocchio {pin.__version__}: "
+            raise RobotFileError(f"robot {name!r} of example-robot-data cannot be loaded with Pinocchio {pin.__version__}: "
                              f"{type(failure).__name__}: {_first_line(str(failure))}{_detail(loader_log)}") from None
         if model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer":
-            raise RobotError(f"robot {name!r} has a floating base; only fixed-base arms can be planned")
+            raise UnsupportedRobotError(f"robot {name!r} has a floating base; only fixed-base arms can be planned")
         package_dirs = tuple(Path(d) for d in (loader.model_path, Path(loader.model_path).parent))
         return cls._build(name, model, tool_frame, Path(loader.df_path), package_dirs, {})
 
@@ -141,7 +144,8 @@ class Robot:
         if tool_frame is None:
             tool_frame = frame_names[-1]
         if not isinstance(tool_frame, str) or not model.existFrame(tool_frame):
-            raise RobotError(f"robot {shown(name)} has no frame {shown(tool_frame)}; frames: {', '.join(frame_names)}")
+            raise UnknownFrameError(f"robot {shown(name)} has no frame {shown(tool_frame)}; frames: "
+                                    f"{', '.join(frame_names)}", frame=tool_frame, frames=tuple(frame_names))
         parent = model.frames[model.getFrameId(tool_frame)].parentJoint
         chain = set(model.supports[parent])
         locked = [j for j in range(1, model.njoints) if j not in chain]
@@ -149,13 +153,15 @@ class Robot:
         for j in range(1, reduced.njoints):
             kind = reduced.joints[j].shortname()
             if kind in _PRISMATIC:
-                raise RobotError(f"joint {reduced.names[j]!r} of robot {shown(name)} is prismatic ({kind}); only "
-                                 f"revolute joints are supported (task values are in degrees)")
+                raise UnsupportedRobotError(f"joint {reduced.names[j]!r} of robot {shown(name)} is prismatic ({kind}); "
+                                            f"only revolute joints are supported (task values are in degrees)",
+                                            joint=reduced.names[j])
             if kind not in _REVOLUTE:
-                raise RobotError(f"joint {reduced.names[j]!r} of robot {shown(name)} is a {kind}; only revolute "
-                                 f"joints with one axis and position limits are supported")
+                raise UnsupportedRobotError(f"joint {reduced.names[j]!r} of robot {shown(name)} is a {kind}; only "
+                                            f"revolute joints with one axis and position limits are supported",
+                                            joint=reduced.names[j])
         if reduced.nq == 0:
-            raise RobotError(f"frame {tool_frame!r} of robot {shown(name)} is not moved by any joint")
+            raise UnsupportedRobotError(f"frame {tool_frame!r} of robot {shown(name)} is not moved by any joint")
         extra_limits = {quantity: np.array([values[reduced.names[j]] for j in range(1, reduced.njoints)])
                         for quantity, values in extra_limits.items()}
         velocity = np.where(reduced.velocityLimit > 0, reduced.velocityLimit, np.inf)
@@ -206,9 +212,9 @@ def _check_meshes(urdf_path: Path, package_dirs) -> None:
                 continue
             where = f"URDF {urdf_path}: link {shown(link.get('name'), 60)} mesh {shown(named, 120)}"
             if not stat.S_ISREG(status.st_mode):
-                raise RobotError(f"{where} is not a regular file (a folder, device or pipe)")
+                raise RobotFileError(f"{where} is not a regular file (a folder, device or pipe)", path=path)
             if status.st_size > MAX_MESH_BYTES:
-                raise RobotError(f"{where} is larger than {MAX_MESH_BYTES >> 20} MiB")
+                raise RobotFileError(f"{where} is larger than {MAX_MESH_BYTES >> 20} MiB", path=path)
 
 
 def _first_line(text: str) -> str:
@@ -244,15 +250,15 @@ def _read_limit_file(path: Path, model: pin.Model) -> dict[str, dict[str, float]
     try:
         data = read_yaml(path, "limits file")
     except TaskError as exc:
-        raise RobotError(f"limits file {path}: {exc.problem}" if exc.path == str(path) else
-                         f"limits file {path}: {exc}") from None
+        raise RobotFileError(f"limits file {path}: {exc.problem}" if exc.path == str(path) else
+                             f"limits file {path}: {exc}", path=path) from None
     data = {} if data is None else data
     keys = " and ".join(_LIMIT_FILE_KEYS)
     if not isinstance(data, dict):
-        raise RobotError(f"limits file {path} must map {keys} to lists, got {type(data).__name__}")
+        raise RobotFileError(f"limits file {path} must map {keys} to lists, got {type(data).__name__}", path=path)
     for key in data:
         if key not in _LIMIT_FILE_KEYS:
-            raise RobotError(f"limits file {path}: unknown key {shown(key)}; expected {keys}")
+            raise RobotFileError(f"limits file {path}: unknown key {shown(key)}; expected {keys}", path=path)
     joints = [model.names[j] for j in range(1, model.njoints)]
     limits = {}
     for key, quantity in _LIMIT_FILE_KEYS.items():
@@ -260,12 +266,12 @@ def _read_limit_file(path: Path, model: pin.Model) -> dict[str, dict[str, float]
             continue
         values = data[key]
         if not isinstance(values, list) or len(values) != len(joints):
-            raise RobotError(f"limits file {path}: {key} must be a list of {len(joints)} positive numbers, one per "
-                             f"joint ({', '.join(joints)}), got {shown(values)}")
+            raise RobotFileError(f"limits file {path}: {key} must be a list of {len(joints)} positive numbers, one "
+                                 f"per joint ({', '.join(joints)}), got {shown(values)}", path=path)
         for joint, value in zip(joints, values):
             if not _positive_finite(value):
-                raise RobotError(f"limits file {path}: {key} of joint {joint!r} must be a positive number, "
-                                 f"got {shown(value)}")
+                raise RobotFileError(f"limits file {path}: {key} of joint {joint!r} must be a positive number, "
+                                     f"got {shown(value)}", path=path)
         limits[quantity] = {joint: math.radians(value) for joint, value in zip(joints, values)}
     return limits
 

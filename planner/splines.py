@@ -23,6 +23,7 @@ from scipy.interpolate import make_interp_spline
 from scipy.linalg import solve_banded
 
 from .errors import InputError
+from .read_only import freeze_arrays
 from .validate import finite_array, positive_durations
 
 #: Most samples ``PiecewisePolynomial.sample`` makes (each sample holds 4 x J floats): a cap on
@@ -53,6 +54,7 @@ class PiecewisePolynomial:
         object.__setattr__(self, "durations", durations)
         object.__setattr__(self, "coefficients", coefficients)
         object.__setattr__(self, "via_knots", np.asarray(self.via_knots, dtype=int))
+        freeze_arrays(self)
 
     @property
     def segment_count(self) -> int:

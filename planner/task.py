@@ -46,6 +46,7 @@ from .ik import BRANCH_RULES
 from .splines import FAMILIES
 from .timing import OPTIMIZERS, cuckoo_search
 from .timing.problem import OBJECTIVES
+from .read_only import freeze_arrays
 from .yaml_input import key_path, read_yaml
 
 SCHEMA_VERSION = 1
@@ -132,6 +133,9 @@ class CartesianWaypoint:
     quaternion_xyzw: np.ndarray
     hint: np.ndarray | None = None
 
+    def __post_init__(self):
+        freeze_arrays(self)
+
 
 @dataclass(frozen=True)
 class IKOptions:
@@ -146,6 +150,9 @@ class IKOptions:
     branch: str = "optimal"
     start: np.ndarray | None = None
     seed: int = 0
+
+    def __post_init__(self):
+        freeze_arrays(self)
 
 
 @dataclass(frozen=True)
@@ -202,6 +209,9 @@ class Task:
     source: Path | None = None
     ik: IKOptions = field(default_factory=IKOptions)
     path: PathOptions = field(default_factory=PathOptions)
+
+    def __post_init__(self):
+        freeze_arrays(self)
 
 
 # ---------------------------------------------------------------------------- primitives

@@ -5,7 +5,8 @@ import pinocchio as pin
 import pytest
 import yaml
 
-from planner import InfeasibleError, PlannerError, RobotError, TaskError, paper
+from planner import (InfeasibleError, MissingLimitError, PlannerError, TaskError, UnknownFrameError,
+                     UnknownRobotError, paper)
 from planner.cli import main
 from planner.ik import pose_from_position_quaternion
 from planner.pipeline import plan
@@ -45,10 +46,10 @@ def paper_cartesian(**changes) -> dict:
 
 
 @pytest.mark.parametrize("changes, error, message", [
-    ({"robot": {"name": "r2d2"}}, RobotError, "unknown robot 'r2d2'"),
-    ({"robot": {"urdf": str(ROOT / "robots" / "puma560.urdf"), "tool_frame": "hand"}}, RobotError,
+    ({"robot": {"name": "r2d2"}}, UnknownRobotError, "unknown robot 'r2d2'"),
+    ({"robot": {"urdf": str(ROOT / "robots" / "puma560.urdf"), "tool_frame": "hand"}}, UnknownFrameError,
      "no frame 'hand'"),
-    ({"robot": {"name": "ur5", "tool_frame": "tool0"}}, RobotError,
+    ({"robot": {"name": "ur5", "tool_frame": "tool0"}}, MissingLimitError,
      "robot 'ur5' has no acceleration limit for joint shoulder_pan_joint; give limits.acceleration_deg_s2"),
     ({"limits": {"jerk_deg_s3": [1, 2]}}, TaskError, r"^limits.jerk_deg_s3: must have 6 values for robot 'puma560', got 2"),
 ])
@@ -242,9 +243,11 @@ def test_a_urdf_velocity_limit_of_zero_is_a_placeholder_the_task_must_replace(tm
     data = yaml.safe_load(PAPER_JOINT.read_text())
     data["robot"] = {"urdf": str(tmp_path / "puma560.urdf"), "tool_frame": "tool"}
     data.pop("limits", None)
-    with pytest.raises(RobotError, match=r"gives joint joint2 a velocity limit of 0 in its URDF .* give "
-                                         r"limits\.velocity_deg_s in the task"):
+    with pytest.raises(MissingLimitError, match=r"gives joint joint2 a velocity limit of 0 in its URDF .* give "
+                                                r"limits\.velocity_deg_s in the task") as caught:
         plan(parse_task(data))
+    assert (caught.value.joint, caught.value.quantity, caught.value.key) == ("joint2", "velocity",
+                                                                             "limits.velocity_deg_s")
     data["limits"] = {"velocity_deg_s": [100] * 6}
     assert plan(parse_task(data)).summary()["feasible"]
 

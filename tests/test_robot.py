@@ -6,7 +6,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from planner import RobotError, paper
+from planner import (MissingLimitError, RobotError, RobotFileError, UnknownFrameError, UnknownRobotError,
+                     UnsupportedRobotError, paper)
 from planner.robot import Robot, load_robot
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -82,12 +83,17 @@ def test_frame_jacobian_matches_finite_differences(puma, name, tool):
 
 
 def test_unknown_robot_frame_and_file():
-    with pytest.raises(RobotError, match="unknown robot 'r2d2'; example-robot-data has: .*ur5"):
+    with pytest.raises(UnknownRobotError, match="unknown robot 'r2d2'; example-robot-data has: .*ur5") as caught:
         Robot.from_example_robot_data("r2d2")
-    with pytest.raises(RobotError, match="robot 'puma560' has no frame 'gripper'; frames: .*tool"):
+    assert caught.value.name == "r2d2" and "ur5" in caught.value.known and "panda" in caught.value.known
+    with pytest.raises(UnknownFrameError, match="robot 'puma560' has no frame 'gripper'; frames: .*tool") as caught:
         Robot.from_urdf(PUMA, "gripper")
-    with pytest.raises(RobotError, match="cannot load URDF"):
+    assert caught.value.frame == "gripper" and "tool" in caught.value.frames
+    with pytest.raises(RobotFileError, match="cannot load URDF") as caught:
         Robot.from_urdf(ROOT / "robots" / "missing.urdf")
+    assert caught.value.path == ROOT / "robots" / "missing.urdf"
+    assert all(issubclass(kind, RobotError) for kind in (UnknownRobotError, UnknownFrameError, RobotFileError,
+                                                         UnsupportedRobotError, MissingLimitError))
     with pytest.raises(RobotError, match="exactly one"):
         load_robot()
 
@@ -186,9 +192,10 @@ PRISMATIC_ARM = """<robot name="slider">
 def test_prismatic_joints_in_the_planned_chain_are_refused(tmp_path):
     urdf = tmp_path / "slider.urdf"
     urdf.write_text(PRISMATIC_ARM)
-    with pytest.raises(RobotError, match=r"joint 'lift' of robot 'slider' is prismatic \(JointModelPZ\); only "
-                                         r"revolute joints are supported"):
+    with pytest.raises(UnsupportedRobotError, match=r"joint 'lift' of robot 'slider' is prismatic \(JointModelPZ\); "
+                                                    r"only revolute joints are supported") as caught:
         Robot.from_urdf(urdf, "arm")
+    assert caught.value.joint == "lift"
     with pytest.raises(RobotError, match=r"joint 'torso_lift_joint' of robot 'tiago_no_hand' is prismatic"):
         Robot.from_example_robot_data("tiago_no_hand", "arm_tool_link")
 

@@ -11,6 +11,7 @@ from typing import Callable, Iterator
 import numpy as np
 
 from ..interrupts import check as check_interrupted
+from ..read_only import freeze_arrays
 from .problem import Evaluation, TimingProblem
 
 #: progress(done, total, best_objective) -> None, called once per iteration.
@@ -76,6 +77,9 @@ class OptimizationResult:
     seed: int | None
     settings: dict = field(default_factory=dict)
     starts: list[StartReport] = field(default_factory=list)
+
+    def __post_init__(self):
+        freeze_arrays(self)
 
     @property
     def max_ratio(self) -> float:

@@ -1,0 +1,28 @@
+"""Frozen dataclasses whose arrays are frozen too: ``frozen=True`` stops reassigning a field, not
+writing into the array it holds (``limits.velocity[0] = 0`` would silently change a value that
+others share)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+
+def freeze_arrays(instance) -> None:
+    """Replace every NumPy array field of the dataclass ``instance`` by a read-only copy (call it
+    from ``__post_init__``, after any conversion); a mapping field's arrays are copied likewise."""
+    for field in dataclasses.fields(instance):
+        value = getattr(instance, field.name)
+        if isinstance(value, np.ndarray):
+            object.__setattr__(instance, field.name, read_only(value))
+        elif isinstance(value, dict) and any(isinstance(item, np.ndarray) for item in value.values()):
+            object.__setattr__(instance, field.name, {key: read_only(item) if isinstance(item, np.ndarray) else item
+                                                      for key, item in value.items()})
+
+
+def read_only(array: np.ndarray) -> np.ndarray:
+    """A read-only copy of ``array`` (the caller's array stays writable)."""
+    copy = np.array(array)
+    copy.setflags(write=False)
+    return copy
