@@ -8,10 +8,13 @@ Pinocchio, SciPy or CasADi are actually needed.
 from __future__ import annotations
 
 import importlib
+import logging
 
 from .errors import (IKError, InfeasibleError, InputError, MissingLimitError, OutputError, PlannerError,
                      RecordingError, RobotError, RobotFileError, TaskError, UnknownFrameError, UnknownRobotError,
                      UnsupportedRobotError, ViewerError)
+
+logging.getLogger(__name__).addHandler(logging.NullHandler())  # silent unless the application logs
 
 #: public name -> the module that defines it
 _LAZY = {

@@ -10,6 +10,7 @@ handlers are in place, so an interruption at any moment is one line too.
 from __future__ import annotations
 
 import argparse
+import logging
 import signal
 import sys
 import threading
@@ -136,10 +137,24 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"error: {self.prog}: {one_line(message)} (see {self.prog} --help)\n")
 
 
+def _log_to_stderr(verbosity: int) -> logging.Handler | None:
+    """With ``--verbose`` (1: INFO, 2 or more: DEBUG), the planner's log lines on stderr; the handler."""
+    if not verbosity:
+        return None
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("%(name)s: %(message)s"))
+    logger = logging.getLogger("planner")
+    logger.setLevel(logging.INFO if verbosity == 1 else logging.DEBUG)
+    logger.addHandler(handler)
+    return handler
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="planner", description="Time-optimal joint trajectories through via-points.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of unexpected errors")
+    parser.add_argument("-v", "--verbose", action="count", default=0,
+                        help="log what the stages do on stderr (IK choices, solver starts and rounds); -vv for more")
     commands = parser.add_subparsers(dest="command", required=True)
     plan = commands.add_parser("plan", help="plan a task file and write the outputs")
     plan.add_argument("task", type=Path, help="YAML task file")
@@ -183,10 +198,11 @@ def main(argv=None, *, keep_signal_handlers: bool = False) -> int:
     in_main_thread = threading.current_thread() is threading.main_thread()  # signals can be set only there
     previous = {number: signal.signal(number, _interrupt) for number in (signal.SIGINT, signal.SIGTERM)} \
         if in_main_thread else {}
-    debug = False
+    debug, logged = False, None
     try:
         args = build_parser().parse_args(argv)
         debug = args.debug
+        logged = _log_to_stderr(args.verbose)
         return args.run(args)
     except PlannerError as exc:
         print(f"error: {_printable(str(exc))}", file=sys.stderr)
@@ -204,6 +220,8 @@ def main(argv=None, *, keep_signal_handlers: bool = False) -> int:
               file=sys.stderr)
         return 1
     finally:
+        if logged is not None:
+            logging.getLogger("planner").removeHandler(logged)
         if not keep_signal_handlers:
             for number, handler in previous.items():
                 signal.signal(number, handler)

@@ -46,6 +46,7 @@ the smallest distance of a joint to a bound of its range.
 
 from __future__ import annotations
 
+import logging
 import math
 import weakref
 from dataclasses import dataclass, replace
@@ -57,6 +58,8 @@ from .analytic_ik import Solver, analytic_solver
 from .errors import IKError, InputError
 from .limits import JointLimits, rest_to_rest_time
 from .read_only import freeze_arrays
+
+log = logging.getLogger(__name__)
 from .robot import Robot
 
 TOLERANCE = 1e-10
@@ -424,8 +427,16 @@ def _optimal_branches(robot, poses, hints, start, limits, rng, accept) -> list[I
         jump = float(np.linalg.norm(q - previous)) if previous is not None else 0.0
         solutions.append(IKSolution(q, chosen.position_error, chosen.orientation_error, chosen.iterations,
                                     attempts, jump, len(found), int(owner[k]), range_margin_deg(q, limits)))
+        _log_choice("optimal", len(solutions) - 1, solutions[-1])
         previous = q
     return solutions
+
+
+def _log_choice(rule: str, index: int, solution: IKSolution) -> None:
+    log.info("%s rule, waypoint %d: solution %d of %d (%d solve%s), jump %.3g deg, margin to the ranges %.3g deg, "
+             "residual %.2g m, %.2g deg", rule, index, solution.chosen + 1, solution.solutions, solution.attempts,
+             "s" * (solution.attempts > 1), np.rad2deg(solution.jump), solution.margin_deg,
+             solution.position_error, np.rad2deg(solution.orientation_error))
 
 
 def _continuous_branch(robot, poses, hints, start, limits, rng, restarts, accept) -> list[IKSolution]:
@@ -441,6 +452,10 @@ def _continuous_branch(robot, poses, hints, start, limits, rng, restarts, accept
         while attempts == 0 or (len(found) < _ALTERNATIVES and attempts <= restarts):
             attempts += 1
             solution = solve_pose(robot, target, trial)
+            if solution.residual > accept:
+                log.debug("waypoint %d: solve %d missed the pose (residual %.2g m, %.2g deg); restarting from a "
+                          "random configuration", index, attempts, solution.position_error,
+                          np.rad2deg(solution.orientation_error))
             trial = finite_lower + (finite_upper - finite_lower) * rng.random(robot.dof)
             if best is None or solution.residual < best.residual:
                 best = solution
@@ -460,5 +475,6 @@ def _continuous_branch(robot, poses, hints, start, limits, rng, restarts, accept
         solutions.append(IKSolution(q, chosen.position_error, chosen.orientation_error, chosen.iterations,
                                     attempts, jump, len(distinct), next(i for i, s in enumerate(distinct) if s is chosen),
                                     range_margin_deg(q, limits)))
+        _log_choice("continuous", index, solutions[-1])
         previous = q
     return solutions

@@ -149,3 +149,15 @@ def test_the_printed_replay_command_runs_as_shown(tmp_path):
                            timeout=300)
     assert check.returncode == 0 and "limits hold" in check.stdout, check.stderr
     assert shlex.split(command)[0] == str(script)
+
+
+def test_verbose_logs_the_ik_choices_on_stderr_and_only_then(tmp_path, capsys):
+    task = ROOT / "scripts" / "tasks" / "ur5_pick_and_place.yaml"
+    assert main(["-v", "plan", str(task), "--out", str(tmp_path / "a"), "--quiet"]) == 0
+    err = capsys.readouterr().err.splitlines()
+    waypoints = len(yaml.safe_load(task.read_text())["waypoints"]["cartesian"])
+    for rule in ("optimal", "continuous"):
+        lines = [line for line in err if line.startswith(f"planner.ik: {rule} rule, waypoint ")]
+        assert len(lines) == waypoints and "solution " in lines[0] and "margin to the ranges" in lines[0]
+    assert main(["plan", str(task), "--out", str(tmp_path / "b"), "--quiet"]) == 0
+    assert capsys.readouterr().err == ""  # the handler went with the run
