@@ -10,7 +10,18 @@ the Jacobians are banded and the problem grows linearly with n.
     subject to  the family's continuity conditions (equalities),
                 its exact limits: knot values (variable bounds), constant jerks, virtual knots,
                 certificates for the extremes inside segments (below),
-                h_min <= h_k <= h_max, or h_k >= 1e-6 of the time scale when unbounded.
+                h_min <= h_k <= h_max, or h_k >= 1e-6 of the time scale when unbounded
+                (bounds on the log-durations, below).
+
+Log-durations. The solver's duration variables are u_k = log(h_k / time scale),
+not h_k. In h the objective is linear and the knot states are v ~ D / h, so at a
+slow start (every limit slack but one) IPOPT's first Newton step, which sees no
+curvature in h and a linearised v, shrinks durations 50-fold in one step; the
+knot states then lie far from the spline of the new durations and the solve
+sinks into the restoration phase (clipped random walks, issue 23: 500 iterations
+without progress). In u the objective sum exp(u_k) has its own curvature, which
+bounds the step, and a step in u changes every duration by a factor, the way
+the limits scale (velocity by exp(-du), acceleration by exp(-2 du), ...).
 
 Certificates. Inside a segment a limited quantity f(s) = q^(d)(s h) (the
 velocity of a cubic, the jerk of a quintic, a position, ...) must stay within
@@ -167,7 +178,7 @@ class TimingNLP:
         problem = self.problem
         h = np.asarray(start, dtype=float)
         coefficients = problem.family.batch_coefficients(problem.via_points, h[None])[0]
-        core = np.concatenate((h / self.scales.time, self.formulation.state_values(coefficients, h)))
+        core = np.concatenate((np.log(h / self.scales.time), self.formulation.state_values(coefficients, h)))
         certificates: list[Certificate] = []
         iterations, status, rounds = 0, "not solved", 0
         while rounds < MAX_ROUNDS:
@@ -182,11 +193,13 @@ class TimingNLP:
             iterations += int(stats.get("iter_count", 0))
             status = str(stats.get("return_status", "unknown"))
             x = np.asarray(solution["x"], dtype=float).ravel()
-            if (status not in SOLVED or not np.all(np.isfinite(x))
-                    or np.any(x[:problem.segment_count] <= 0)):
+            with np.errstate(over="ignore"):
+                solved_h = self.scales.time * np.exp(x[:problem.segment_count])
+            if (status not in SOLVED or not np.all(np.isfinite(x)) or not np.all(np.isfinite(solved_h))
+                    or np.any(solved_h <= 0)):
                 break  # keep the last solved round (or the start): more rounds would not help
             core = x[:len(core)]
-            h = core[:problem.segment_count] * self.scales.time
+            h = self.scales.time * np.exp(core[:problem.segment_count])
             coefficients = problem.family.batch_coefficients(problem.via_points, h[None])[0]
             if problem.evaluate_durations(h[None]).feasible[0]:
                 break
@@ -335,8 +348,8 @@ class _Program:
 
         problem, scales = nlp.problem, nlp.scales
         segments = problem.segment_count
-        eta = ca.MX.sym("durations", segments)
-        h = eta * scales.time
+        eta = ca.MX.sym("log_durations", segments)
+        h = scales.time * ca.exp(eta)
         spline = nlp.formulation.build(h)
         self.spline = spline
         count = spline.equalities.shape[0]
@@ -369,8 +382,10 @@ class _Program:
         h_high = problem.bounds[1] / scales.time if problem.bounds is not None else np.inf
         h_low = max(problem.duration_floor / scales.time, 0.0 if problem.bounds is not None else DURATION_FLOOR)
         size = extra.shape[0]
-        self.lbx = np.concatenate((np.full(segments, h_low), spline.lower, np.zeros(size)))
-        self.ubx = np.concatenate((np.full(segments, h_high), spline.upper, np.full(size, np.inf)))
+        with np.errstate(divide="ignore"):
+            log_low, log_high = np.log(h_low), np.log(h_high)  # -inf, +inf where absent
+        self.lbx = np.concatenate((np.full(segments, log_low), spline.lower, np.zeros(size)))
+        self.ubx = np.concatenate((np.full(segments, log_high), spline.upper, np.full(size, np.inf)))
         self.lbg, self.ubg = np.concatenate(lower), np.concatenate(upper)
         variables = ca.vertcat(eta, spline.states, extra)
         remaining = remaining_time()  # IPOPT stops by itself at the time limit
