@@ -220,3 +220,60 @@ def test_solver_reports_its_rounds(paper_via, paper_limits):
     outcome = TimingNLP(problem, start).solve(start)
     assert outcome.rounds >= 1 and outcome.iterations > 0 and outcome.status == "Solve_Succeeded"
     assert outcome.durations.sum() < start.sum()
+
+
+# ------------------------------------------------------------------ hard tasks: clipped random walks (issue 23)
+
+#: The PUMA 560's position ranges [deg] (robots/puma560.urdf), the bounds the clipped walks sit on.
+PUMA_RANGES = np.deg2rad([[-160.0, -225.0, -45.0, -110.0, -100.0, -266.0], [160.0, 45.0, 225.0, 170.0, 100.0, 266.0]])
+
+
+def clipped_walk(count: int, seed: int) -> np.ndarray:
+    """(count, 6) a random walk (steps uniform in +-40 deg) clipped to the PUMA ranges: many via-points on a
+    bound, joints resting over whole chords (the hard class of scripts/bench_scale.py)."""
+    steps = np.random.default_rng(seed).uniform(-40.0, 40.0, (count - 1, 6))
+    walk = np.deg2rad(np.vstack((np.zeros(6), np.cumsum(steps, axis=0))))
+    return np.clip(walk, *PUMA_RANGES)
+
+
+def assert_limits_hold_when_sampled(problem: TimingProblem, durations: np.ndarray, samples: int = 200001) -> None:
+    """Independent of the exact extrema: positions through the via-points, and |v|, |a|, |j| under the
+    limits at dense samples (1e-9 relative)."""
+    trajectory = problem.trajectory(durations)
+    np.testing.assert_allclose(trajectory.evaluate(trajectory.via_times), problem.given_via_points, atol=1e-9)
+    times = np.linspace(0.0, trajectory.total_time, samples)
+    for order, limit in enumerate(problem.limits.magnitudes, start=1):
+        peak = np.abs(trajectory.evaluate(times, order)).max(axis=0)
+        assert np.all(peak <= limit * (1 + 1e-9)), (order, peak / limit)
+    positions = trajectory.evaluate(times)
+    assert np.all(positions >= problem.limits.lower - 1e-9) and np.all(positions <= problem.limits.upper + 1e-9)
+
+
+@pytest.mark.parametrize("count, seed", [(48, 101), (256, 256)])
+def test_clipped_random_walk_every_start_converges(paper_limits, count, seed):
+    """Before log-durations, the cruise start of (256, 256) stopped at IPOPT's iteration cap."""
+    via = clipped_walk(count, seed)
+    assert np.isclose(via, PUMA_RANGES[0]).any() and np.isclose(via, PUMA_RANGES[1]).any()
+    problem = TimingProblem(via, "hybrid", paper_limits)
+    result = optimize(problem)
+    assert [s.status for s in result.starts] == ["Solve_Succeeded"] * 3
+    assert result.feasible and all(s.feasible for s in result.starts)
+    assert kinematic_figures(problem.trajectory(result.durations)).violations(paper_limits) == []
+    assert_limits_hold_when_sampled(problem, result.durations)
+
+
+def test_slow_start_does_not_collapse(paper_limits):
+    """A start with every segment far slower than its limits but one (what the cruise shape gives a walk with a
+    tiny chord) converges to the optimum the good starts find; with the durations themselves as variables
+    IPOPT's first step shrank them 50-fold and the solve stalled in restoration."""
+    problem = TimingProblem(clipped_walk(128, 107), "hybrid", paper_limits)
+    shape = np.ones(problem.segment_count)
+    shape[problem.segment_count // 2] = 1e-3
+    slow = problem.evaluate(shape[None]).durations[0]
+    good = problem.evaluate(np.ones((1, problem.segment_count))).durations[0]
+    assert slow.sum() > 100 * good.sum()
+    nlp = TimingNLP(problem, good)
+    outcomes = [nlp.solve(slow), nlp.solve(good)]
+    assert [o.status for o in outcomes] == ["Solve_Succeeded"] * 2
+    totals = [problem.evaluate(o.durations[None]).objective[0] for o in outcomes]
+    assert relative_gap(totals[0], totals[1]) < 1e-4
