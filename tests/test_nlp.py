@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 from planner import JointLimits, get_family, kinematic_figures, paper
 from planner.timing import TimingProblem, optimize
 from planner.timing.formulations import FORMULATIONS, HYBRID_END, HYBRID_END_JERK, Scales
-from planner.timing.nlp import TimingNLP, cubic_certificate, quadratic_certificate
+from planner.timing.nlp import TimingNLP, cubic_certificate, quadratic_certificate, touch_certificate
 from planner.timing.starts import chord_segments, start_shapes
 
 FAMILIES = ("cubic", "hybrid", "quintic")
@@ -205,6 +205,27 @@ def test_certificates_are_sound(p, a0, a2, lam):
         assert quadratic(np.linspace(0, 1, 1001)).min() >= -1e-9
 
 
+@given(st.lists(st.floats(-2, 2), min_size=3, max_size=3), st.sampled_from([0, 1]))
+@settings(max_examples=200)
+def test_touch_certificates_are_exact(p, touch):
+    """A cubic with a double root at s = ``touch`` (plus a constant): rows all >= 0 imply it is >= 0 on [0, 1],
+    and without the constant (a via-point exactly on the bound) the converse holds too."""
+    constant, p2, p3 = p
+    if touch == 0:
+        coefficients = [constant, 0.0, p2, p3]
+    else:  # constant + (1 - s)^2 (p2 + p3 (1 - s)), expanded
+        coefficients = [constant + p2 + p3, -2 * p2 - 3 * p3, p2 + 3 * p3, -p3]
+    polynomial = np.polynomial.Polynomial(coefficients)
+    certified = min(touch_certificate(coefficients, touch)) >= 0
+    lowest = polynomial(np.linspace(0, 1, 2001)).min()
+    if certified:
+        assert lowest >= -1e-9
+    polynomial = polynomial - constant
+    near_ends = np.geomspace(1e-12, 1.0, 2001)
+    if min(touch_certificate(polynomial.coef.tolist() + [0.0] * 4, touch)[1:]) < -1e-9:
+        assert polynomial(np.concatenate((near_ends, 1.0 - near_ends))).min() < 0
+
+
 def test_start_shapes_cover_every_chord(paper_via, paper_limits):
     for family in FAMILIES:
         problem = TimingProblem(paper_via, family, paper_limits)
@@ -277,3 +298,20 @@ def test_slow_start_does_not_collapse(paper_limits):
     assert [o.status for o in outcomes] == ["Solve_Succeeded"] * 2
     totals = [problem.evaluate(o.durations[None]).objective[0] for o in outcomes]
     assert relative_gap(totals[0], totals[1]) < 1e-4
+
+
+@pytest.mark.parametrize("family", ["cubic", "hybrid"])
+def test_via_points_on_a_position_bound_stop_there(paper_via, paper_limits, family):
+    """With joint 1's range exactly [min, max] of its via-points, the joint must stop at those via-points: its
+    knot velocity is fixed at 0 (not merely small enough for the 1e-9 tolerance) and the position
+    certificates beside them stay exact without degenerating."""
+    lower, upper = np.full(6, -np.inf), np.full(6, np.inf)
+    lower[0], upper[0] = paper_via[:, 0].min(), paper_via[:, 0].max()
+    limits = paper_limits.with_overrides(lower=lower, upper=upper)
+    problem = TimingProblem(paper_via, family, limits)
+    result = optimize(problem, "nlp")
+    assert [s.status for s in result.starts] == ["Solve_Succeeded"] * 3 and result.feasible and result.starts_agree
+    assert_limits_hold_when_sampled(problem, result.durations)
+    trajectory = problem.trajectory(result.durations)
+    on_bound = np.flatnonzero((paper_via[1:-1, 0] == lower[0]) | (paper_via[1:-1, 0] == upper[0])) + 1
+    assert on_bound.size and np.abs(trajectory.evaluate(trajectory.via_times[on_bound], 1)[:, 0]).max() < 1e-12
