@@ -19,8 +19,14 @@ exact feasibility check. Then the paper case (8 via-points, hybrid) with and
 without bounds [3, 5] s, and the growth exponent of the wall time from 64 to
 1024 via-points. Timings on a shared machine vary: compare medians.
 
+``--toppra`` adds TOPP-RA (``pip install .[bench]``) as a peer: the median
+wall time of a velocity- and acceleration-limited time parametrization (its
+automatic grid) of a cubic spline through the same (merged) via-points, and
+its duration. It is not the same problem (no jerk limit, no hybrid ends, a
+path parametrized by a uniform s): a reference for compute time only.
+
     python scripts/bench_scale.py [--sizes 8 16 ... 1024] [--families cubic hybrid]
-                                  [--classes smooth clipped] [--ranges]
+                                  [--classes smooth clipped] [--ranges] [--toppra]
                                   [--repeats 3] [--algorithm default]
 """
 
@@ -75,6 +81,29 @@ def start_summary(result) -> str:
     return ", ".join(f"{s.label} {s.iterations} {short.get(s.status, s.status)}" for s in result.starts)
 
 
+def toppra_peer(via: np.ndarray, limits, repeats: int) -> tuple[float, float]:
+    """Median wall time [s] of TOPP-RA's velocity- and acceleration-limited parametrization of a cubic spline
+    through ``via`` (repeats merged), and the duration [s] it finds (module docstring)."""
+    import toppra
+    import toppra.algorithm
+    import toppra.constraint
+
+    toppra.setup_logging("WARNING")
+    distinct = np.concatenate(([True], np.abs(np.diff(via, axis=0)).max(axis=1) > 1e-9))
+    via = via[distinct]
+    walls = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        path = toppra.SplineInterpolator(np.linspace(0.0, 1.0, len(via)), via)
+        constraints = [toppra.constraint.JointVelocityConstraint(np.vstack((-limits.velocity, limits.velocity)).T),
+                       toppra.constraint.JointAccelerationConstraint(
+                           np.vstack((-limits.acceleration, limits.acceleration)).T)]
+        trajectory = toppra.algorithm.TOPPRA(constraints, path, parametrizer="ParametrizeConstAccel") \
+            .compute_trajectory()
+        walls.append(time.perf_counter() - start)
+    return statistics.median(walls), float(trajectory.duration)
+
+
 def run(problem: TimingProblem, algorithm: str, repeats: int):
     """The result of the last of ``repeats`` runs and the median wall time [s]."""
     walls = []
@@ -91,6 +120,7 @@ def main() -> None:
     parser.add_argument("--families", nargs="+", default=["cubic", "hybrid"])
     parser.add_argument("--classes", nargs="+", default=list(CLASSES), choices=CLASSES)
     parser.add_argument("--ranges", action="store_true", help="enforce the PUMA ranges on the clipped class")
+    parser.add_argument("--toppra", action="store_true", help="time TOPP-RA on the same via-points (extra [bench])")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--algorithm", default="default")
     args = parser.parse_args()
@@ -102,9 +132,10 @@ def main() -> None:
         result, wall = run(TimingProblem(via, "hybrid", limits, bounds=bounds), args.algorithm, args.repeats)
         print(f"paper case, hybrid, bounds {bounds}: total {result.total_time:.6f} s, wall {1e3 * wall:.0f} ms, "
               f"feasible {result.feasible}, starts agree {result.starts_agree}")
+    peer = " TOPP-RA wall [s] | TOPP-RA duration [s] |" if args.toppra else ""
     print("\n| family | class | n | total time [s] | wall [s] | iterations | starts (iterations, status) "
-          "| agree | feasible |")
-    print("|---|---|---:|---:|---:|---:|---|---|---|")
+          f"| agree | feasible |{peer}")
+    print("|---|---|---:|---:|---:|---:|---|---|---|" + ("---:|---:|" if args.toppra else ""))
     walls: dict[tuple[str, str, int], float] = {}
     for family in args.families:
         for kind in args.classes:
@@ -112,8 +143,12 @@ def main() -> None:
                 via, limits = task(kind, n, args.ranges)
                 result, wall = run(TimingProblem(via, family, limits), args.algorithm, args.repeats)
                 walls[family, kind, n] = wall
-                print(f"| {family} | {kind} | {n} | {result.total_time:.6f} | {wall:.3f} | {result.solver_iterations} "
-                      f"| {start_summary(result)} | {result.starts_agree} | {result.feasible} |", flush=True)
+                row = (f"| {family} | {kind} | {n} | {result.total_time:.6f} | {wall:.3f} | {result.solver_iterations} "
+                       f"| {start_summary(result)} | {result.starts_agree} | {result.feasible} |")
+                if args.toppra:
+                    peer_wall, peer_duration = toppra_peer(via, limits, args.repeats)
+                    row += f" {peer_wall:.3f} | {peer_duration:.3f} |"
+                print(row, flush=True)
     for (family, kind, n), wall in walls.items():
         if n == 1024 and (family, kind, 64) in walls:
             exponent = math.log(wall / walls[family, kind, 64]) / math.log(16)
