@@ -1,14 +1,32 @@
 """Benchmark: the timing optimizer from 8 to 1024 via-points (random walks, paper limits).
 
-Task: a random walk of ``n`` via-points for 6 joints, steps uniform in
-+-40 degrees per joint (seed = n), Table III limits, no bounds, objective
-``time``. For each family and size it reports the total time, the median
-optimizer wall time in-process after a warm-up, the solver iterations, whether
-the NLP's starts agree (within 0.01 %), and the exact feasibility check. Then
-the paper case (8 via-points, hybrid) with and without bounds [3, 5] s, and
-the growth exponent of the wall time from 64 to 1024 via-points.
+Tasks, for 6 joints under Table III limits, no bounds, objective ``time``:
+
+* ``smooth``: a random walk of ``n`` via-points, steps uniform in +-40 degrees
+  per joint (seed = n);
+* ``clipped`` (issue 23, the hard class): the same kind of walk (seed = n + 1)
+  clipped to the PUMA 560's position ranges (``robots/puma560.urdf``), so many
+  via-points sit exactly on a range bound, joints rest over whole chords, and
+  from n ~ 256 on consecutive via-points coincide (the problem merges them).
+  ``--ranges`` also enforces those ranges (with a via-point on a bound the
+  spline must stop that joint there, one condition per such via-point on the
+  shared durations: more of them than durations is infeasible, and is reported so).
+
+For each family, class and size it reports the total time, the median
+optimizer wall time in-process after a warm-up, the solver iterations and
+IPOPT status per NLP start, whether the starts agree (within 0.01 %), and the
+exact feasibility check. Then the paper case (8 via-points, hybrid) with and
+without bounds [3, 5] s, and the growth exponent of the wall time from 64 to
+1024 via-points. Timings on a shared machine vary: compare medians.
+
+``--toppra`` adds TOPP-RA (``pip install .[bench]``) as a peer: the median
+wall time of a velocity- and acceleration-limited time parametrization (its
+automatic grid) of a cubic spline through the same (merged) via-points, and
+its duration. It is not the same problem (no jerk limit, no hybrid ends, a
+path parametrized by a uniform s): a reference for compute time only.
 
     python scripts/bench_scale.py [--sizes 8 16 ... 1024] [--families cubic hybrid]
+                                  [--classes smooth clipped] [--ranges] [--toppra]
                                   [--repeats 3] [--algorithm default]
 """
 
@@ -34,6 +52,58 @@ def random_walk(count: int, seed: int, joints: int = 6) -> np.ndarray:
     return np.deg2rad(np.vstack((np.zeros(joints), np.cumsum(steps, axis=0))))
 
 
+#: The PUMA 560's joint position ranges [deg] (robots/puma560.urdf), which the ``clipped`` class clips to.
+PUMA_RANGES_DEG = np.array([[-160.0, -225.0, -45.0, -110.0, -100.0, -266.0],
+                            [160.0, 45.0, 225.0, 170.0, 100.0, 266.0]])
+CLASSES = ("smooth", "clipped")
+
+
+def clipped_walk(count: int, seed: int) -> np.ndarray:
+    """(count, 6) via-points [rad]: ``random_walk`` clipped to ``PUMA_RANGES_DEG``."""
+    low, high = np.deg2rad(PUMA_RANGES_DEG)
+    return np.clip(random_walk(count, seed), low, high)
+
+
+def task(kind: str, count: int, ranges: bool) -> tuple[np.ndarray, object]:
+    """Via-points and limits of one benchmark task (module docstring)."""
+    limits = paper.paper_limits()
+    if kind == "smooth":
+        return random_walk(count, count), limits
+    if ranges:
+        low, high = np.deg2rad(PUMA_RANGES_DEG)
+        limits = limits.with_overrides(lower=low, upper=high)
+    return clipped_walk(count, count + 1), limits
+
+
+def start_summary(result) -> str:
+    """Iterations and IPOPT status of each NLP start: ``rest-to-rest 23 ok, ...``."""
+    short = {"Solve_Succeeded": "ok", "Solved_To_Acceptable_Level": "acceptable"}
+    return ", ".join(f"{s.label} {s.iterations} {short.get(s.status, s.status)}" for s in result.starts)
+
+
+def toppra_peer(via: np.ndarray, limits, repeats: int) -> tuple[float, float]:
+    """Median wall time [s] of TOPP-RA's velocity- and acceleration-limited parametrization of a cubic spline
+    through ``via`` (repeats merged), and the duration [s] it finds (module docstring)."""
+    import toppra
+    import toppra.algorithm
+    import toppra.constraint
+
+    toppra.setup_logging("WARNING")
+    distinct = np.concatenate(([True], np.abs(np.diff(via, axis=0)).max(axis=1) > 1e-9))
+    via = via[distinct]
+    walls = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        path = toppra.SplineInterpolator(np.linspace(0.0, 1.0, len(via)), via)
+        constraints = [toppra.constraint.JointVelocityConstraint(np.vstack((-limits.velocity, limits.velocity)).T),
+                       toppra.constraint.JointAccelerationConstraint(
+                           np.vstack((-limits.acceleration, limits.acceleration)).T)]
+        trajectory = toppra.algorithm.TOPPRA(constraints, path, parametrizer="ParametrizeConstAccel") \
+            .compute_trajectory()
+        walls.append(time.perf_counter() - start)
+    return statistics.median(walls), float(trajectory.duration)
+
+
 def run(problem: TimingProblem, algorithm: str, repeats: int):
     """The result of the last of ``repeats`` runs and the median wall time [s]."""
     walls = []
@@ -48,6 +118,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=list(SIZES))
     parser.add_argument("--families", nargs="+", default=["cubic", "hybrid"])
+    parser.add_argument("--classes", nargs="+", default=list(CLASSES), choices=CLASSES)
+    parser.add_argument("--ranges", action="store_true", help="enforce the PUMA ranges on the clipped class")
+    parser.add_argument("--toppra", action="store_true", help="time TOPP-RA on the same via-points (extra [bench])")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--algorithm", default="default")
     args = parser.parse_args()
@@ -59,20 +132,27 @@ def main() -> None:
         result, wall = run(TimingProblem(via, "hybrid", limits, bounds=bounds), args.algorithm, args.repeats)
         print(f"paper case, hybrid, bounds {bounds}: total {result.total_time:.6f} s, wall {1e3 * wall:.0f} ms, "
               f"feasible {result.feasible}, starts agree {result.starts_agree}")
-    print("\n| family | n | total time [s] | wall [s] | iterations | starts | agree | feasible |")
-    print("|---|---:|---:|---:|---:|---:|---|---|")
-    walls: dict[tuple[str, int], float] = {}
+    peer = " TOPP-RA wall [s] | TOPP-RA duration [s] |" if args.toppra else ""
+    print("\n| family | class | n | total time [s] | wall [s] | iterations | starts (iterations, status) "
+          f"| agree | feasible |{peer}")
+    print("|---|---|---:|---:|---:|---:|---|---|---|" + ("---:|---:|" if args.toppra else ""))
+    walls: dict[tuple[str, str, int], float] = {}
     for family in args.families:
-        for n in args.sizes:
-            result, wall = run(TimingProblem(random_walk(n, n), family, limits), args.algorithm, args.repeats)
-            walls[family, n] = wall
-            print(f"| {family} | {n} | {result.total_time:.6f} | {wall:.3f} | {result.solver_iterations} | "
-                  f"{len(result.starts)} | {result.starts_agree} | {result.feasible} |", flush=True)
-    for family in args.families:
-        if (family, 64) in walls and (family, 1024) in walls:
-            exponent = math.log(walls[family, 1024] / walls[family, 64]) / math.log(16)
-            print(f"\n{family}: wall time grows like n^{exponent:.2f} from 64 to 1024 via-points")
-
+        for kind in args.classes:
+            for n in args.sizes:
+                via, limits = task(kind, n, args.ranges)
+                result, wall = run(TimingProblem(via, family, limits), args.algorithm, args.repeats)
+                walls[family, kind, n] = wall
+                row = (f"| {family} | {kind} | {n} | {result.total_time:.6f} | {wall:.3f} | {result.solver_iterations} "
+                       f"| {start_summary(result)} | {result.starts_agree} | {result.feasible} |")
+                if args.toppra:
+                    peer_wall, peer_duration = toppra_peer(via, limits, args.repeats)
+                    row += f" {peer_wall:.3f} | {peer_duration:.3f} |"
+                print(row, flush=True)
+    for (family, kind, n), wall in walls.items():
+        if n == 1024 and (family, kind, 64) in walls:
+            exponent = math.log(wall / walls[family, kind, 64]) / math.log(16)
+            print(f"\n{family}, {kind}: wall time grows like n^{exponent:.2f} from 64 to 1024 via-points")
 
 if __name__ == "__main__":
     main()

@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 from planner import JointLimits, get_family, kinematic_figures, paper
 from planner.timing import TimingProblem, optimize
 from planner.timing.formulations import FORMULATIONS, HYBRID_END, HYBRID_END_JERK, Scales
-from planner.timing.nlp import TimingNLP, cubic_certificate, quadratic_certificate
+from planner.timing.nlp import TimingNLP, cubic_certificate, quadratic_certificate, touch_certificate
 from planner.timing.starts import chord_segments, start_shapes
 
 FAMILIES = ("cubic", "hybrid", "quintic")
@@ -205,6 +205,27 @@ def test_certificates_are_sound(p, a0, a2, lam):
         assert quadratic(np.linspace(0, 1, 1001)).min() >= -1e-9
 
 
+@given(st.lists(st.floats(-2, 2), min_size=3, max_size=3), st.sampled_from([0, 1]))
+@settings(max_examples=200)
+def test_touch_certificates_are_exact(p, touch):
+    """A cubic with a double root at s = ``touch`` (plus a constant): rows all >= 0 imply it is >= 0 on [0, 1],
+    and without the constant (a via-point exactly on the bound) the converse holds too."""
+    constant, p2, p3 = p
+    if touch == 0:
+        coefficients = [constant, 0.0, p2, p3]
+    else:  # constant + (1 - s)^2 (p2 + p3 (1 - s)), expanded
+        coefficients = [constant + p2 + p3, -2 * p2 - 3 * p3, p2 + 3 * p3, -p3]
+    polynomial = np.polynomial.Polynomial(coefficients)
+    certified = min(touch_certificate(coefficients, touch)) >= 0
+    lowest = polynomial(np.linspace(0, 1, 2001)).min()
+    if certified:
+        assert lowest >= -1e-9
+    polynomial = polynomial - constant
+    near_ends = np.geomspace(1e-12, 1.0, 2001)
+    if min(touch_certificate(polynomial.coef.tolist() + [0.0] * 4, touch)[1:]) < -1e-9:
+        assert polynomial(np.concatenate((near_ends, 1.0 - near_ends))).min() < 0
+
+
 def test_start_shapes_cover_every_chord(paper_via, paper_limits):
     for family in FAMILIES:
         problem = TimingProblem(paper_via, family, paper_limits)
@@ -250,3 +271,77 @@ def test_starts_agree_only_within_the_agreement_gap():
     assert not result(10.0, 10.2).starts_agree
     assert not result(10.0, 10.0, feasible=False).starts_agree
     assert result().starts_agree is None
+
+
+# ------------------------------------------------------------------ hard tasks: clipped random walks 
+
+#: The PUMA 560's position ranges [deg] (robots/puma560.urdf), the bounds the clipped walks sit on.
+PUMA_RANGES = np.deg2rad([[-160.0, -225.0, -45.0, -110.0, -100.0, -266.0], [160.0, 45.0, 225.0, 170.0, 100.0, 266.0]])
+
+
+def clipped_walk(count: int, seed: int) -> np.ndarray:
+    """(count, 6) a random walk (steps uniform in +-40 deg) clipped to the PUMA ranges: many via-points on a
+    bound, joints resting over whole chords (the hard class of scripts/bench_scale.py)."""
+    steps = np.random.default_rng(seed).uniform(-40.0, 40.0, (count - 1, 6))
+    walk = np.deg2rad(np.vstack((np.zeros(6), np.cumsum(steps, axis=0))))
+    return np.clip(walk, *PUMA_RANGES)
+
+
+def assert_limits_hold_when_sampled(problem: TimingProblem, durations: np.ndarray, samples: int = 200001) -> None:
+    """Independent of the exact extrema: positions through the via-points, and |v|, |a|, |j| under the
+    limits at dense samples (1e-9 relative)."""
+    trajectory = problem.trajectory(durations)
+    np.testing.assert_allclose(trajectory.evaluate(trajectory.via_times), problem.given_via_points, atol=1e-9)
+    times = np.linspace(0.0, trajectory.total_time, samples)
+    for order, limit in enumerate(problem.limits.magnitudes, start=1):
+        peak = np.abs(trajectory.evaluate(times, order)).max(axis=0)
+        assert np.all(peak <= limit * (1 + 1e-9)), (order, peak / limit)
+    positions = trajectory.evaluate(times)
+    assert np.all(positions >= problem.limits.lower - 1e-9) and np.all(positions <= problem.limits.upper + 1e-9)
+
+
+@pytest.mark.parametrize("count, seed", [(48, 101), (256, 256)])
+def test_clipped_random_walk_every_start_converges(paper_limits, count, seed):
+    """Before log-durations, the cruise start of (256, 256) stopped at IPOPT's iteration cap."""
+    via = clipped_walk(count, seed)
+    assert np.isclose(via, PUMA_RANGES[0]).any() and np.isclose(via, PUMA_RANGES[1]).any()
+    problem = TimingProblem(via, "hybrid", paper_limits)
+    result = optimize(problem)
+    assert [s.status for s in result.starts] == ["Solve_Succeeded"] * 3
+    assert result.feasible and all(s.feasible for s in result.starts)
+    assert kinematic_figures(problem.trajectory(result.durations)).violations(paper_limits) == []
+    assert_limits_hold_when_sampled(problem, result.durations)
+
+
+def test_slow_start_does_not_collapse(paper_limits):
+    """A start with every segment far slower than its limits but one (what the cruise shape gives a walk with a
+    tiny chord) converges to the optimum the good starts find; with the durations themselves as variables
+    IPOPT's first step shrank them 50-fold and the solve stalled in restoration."""
+    problem = TimingProblem(clipped_walk(128, 107), "hybrid", paper_limits)
+    shape = np.ones(problem.segment_count)
+    shape[problem.segment_count // 2] = 1e-3
+    slow = problem.evaluate(shape[None]).durations[0]
+    good = problem.evaluate(np.ones((1, problem.segment_count))).durations[0]
+    assert slow.sum() > 100 * good.sum()
+    nlp = TimingNLP(problem, good)
+    outcomes = [nlp.solve(slow), nlp.solve(good)]
+    assert [o.status for o in outcomes] == ["Solve_Succeeded"] * 2
+    totals = [problem.evaluate(o.durations[None]).objective[0] for o in outcomes]
+    assert relative_gap(totals[0], totals[1]) < 1e-4
+
+
+@pytest.mark.parametrize("family", ["cubic", "hybrid"])
+def test_via_points_on_a_position_bound_stop_there(paper_via, paper_limits, family):
+    """With joint 1's range exactly [min, max] of its via-points, the joint must stop at those via-points: its
+    knot velocity is fixed at 0 (not merely small enough for the 1e-9 tolerance) and the position
+    certificates beside them stay exact without degenerating."""
+    lower, upper = np.full(6, -np.inf), np.full(6, np.inf)
+    lower[0], upper[0] = paper_via[:, 0].min(), paper_via[:, 0].max()
+    limits = paper_limits.with_overrides(lower=lower, upper=upper)
+    problem = TimingProblem(paper_via, family, limits)
+    result = optimize(problem, "nlp")
+    assert [s.status for s in result.starts] == ["Solve_Succeeded"] * 3 and result.feasible and result.starts_agree
+    assert_limits_hold_when_sampled(problem, result.durations)
+    trajectory = problem.trajectory(result.durations)
+    on_bound = np.flatnonzero((paper_via[1:-1, 0] == lower[0]) | (paper_via[1:-1, 0] == upper[0])) + 1
+    assert on_bound.size and np.abs(trajectory.evaluate(trajectory.via_times[on_bound], 1)[:, 0]).max() < 1e-12

@@ -49,6 +49,10 @@ def _peak(coefficients: np.ndarray) -> float:
 HYBRID_END_JERK = _peak(derivative_coefficients(HYBRID_END, 3))
 
 
+#: A via-point within this of a position bound [rad] is on it (``SplineFormulation.resting_sides``).
+ON_BOUND = 1e-12
+
+
 @dataclass(frozen=True)
 class Scales:
     """Characteristic magnitudes that scale the NLP's variables and constraints to order one.
@@ -134,6 +138,23 @@ class SplineFormulation:
         """The scaled knot states of a built spline (coefficients (S, J, D+1), durations (S,))."""
         raise NotImplementedError
 
+    def resting_sides(self) -> np.ndarray:
+        """(n, J) +1 / -1 where an interior via-point sits on its joint's upper / lower position bound
+        (within ``ON_BOUND``) and the range is enforced, else 0.
+
+        There the joint must stop (a nonzero velocity leaves the range on one side), so its knot
+        velocity is fixed at 0: exact, and it keeps the position certificates of the adjacent
+        segments non-degenerate (``nlp.touch_certificate``)."""
+        via, limits = self.via_points, self.limits
+        sides = np.where(np.abs(via - limits.upper) <= ON_BOUND, 1, 0)
+        sides = np.where(np.abs(via - limits.lower) <= ON_BOUND, -1, sides)
+        sides[[0, -1]] = 0
+        return sides
+
+    def knot_resting_sides(self) -> np.ndarray:
+        """(knots, J) ``resting_sides`` at the family's knots (virtual knots never rest)."""
+        raise NotImplementedError
+
     def _scaled_bounds(self, order: int, count: int) -> np.ndarray:
         """(count * J,) bounds of scaled knot values of derivative ``order``, joint-major."""
         limit = self.limits.magnitudes[order - 1] if order <= 3 else np.full(self.joint_count, np.inf)
@@ -168,7 +189,8 @@ class CubicFormulation(SplineFormulation):
     (variable bounds) is exact; velocity at the knots |v_k| <= V (bounds), its
     interior extremes certified by the NLP; jerk (M_{k+1} - M_k) / h_k is
     constant, so |M_{k+1} - M_k| <= Jk h_k is exact; the virtual knots stay in
-    the position range, interior position extremes are certified. The hybrid's
+    the position range, interior position extremes are certified (at a via-point
+    on a range bound the knot velocity is fixed at 0, ``resting_sides``). The hybrid's
     7th-order end segments are y_0 + M_1 h_0^2 P(s) (``HYBRID_END``): their
     speed, acceleration and position are monotone up to the knot values, and
     their jerk peaks at 1.3869 |M_1| / h_0, bounded exactly like a cubic's.
@@ -217,8 +239,16 @@ class CubicFormulation(SplineFormulation):
         else:
             blocks = [SegmentBlock(all_segments, cubic, (0, 1))]
         bounds = np.concatenate((self._scaled_bounds(1, n), self._scaled_bounds(2, n)))
+        resting = np.concatenate(((self.knot_resting_sides()[1:-1] != 0).T.ravel(), np.zeros(n * joints, bool)))
+        bounds = np.where(resting, 0.0, bounds)
         return SymbolicSpline(states, -bounds, bounds, ca.vertcat(ca.vec(velocity_step), ca.vec(position_step)),
                               constraints, blocks)
+
+    def knot_resting_sides(self) -> np.ndarray:
+        # Knots: p_0, virtual, p_1 .. p_{n-2}, virtual, p_{n-1}.
+        sides = self.resting_sides()
+        none = np.zeros((1, self.joint_count), dtype=int)
+        return np.vstack((sides[:1], none, sides[1:-1], none, sides[-1:]))
 
     def _hybrid_ends(self, ca, h, acceleration, segments: int) -> list:
         """Normalised coefficients (2, J) of the hybrid's two 7th-order end segments."""
@@ -280,8 +310,12 @@ class QuinticFormulation(SplineFormulation):
             mismatch = (at_end / powers[d] - knots[d - 1][1:, :]) / _per_joint(ca, scales.derivatives[d - 1], segments)
             equalities.append(ca.vec(mismatch))
         bounds = np.concatenate([self._scaled_bounds(order, count) for order, count in enumerate(counts, start=1)])
+        bounds[:inner * joints] = np.where((self.resting_sides()[1:-1] != 0).T.ravel(), 0.0, bounds[:inner * joints])
         return SymbolicSpline(states, -bounds, bounds, ca.vertcat(*equalities),
                               blocks=[SegmentBlock(np.arange(segments), coefficients, (0, 1, 2, 3))])
+
+    def knot_resting_sides(self) -> np.ndarray:
+        return self.resting_sides()
 
     def state_values(self, coefficients: np.ndarray, durations: np.ndarray) -> np.ndarray:
         # Knot states: each segment's start, and the last segment's end for the final knot.

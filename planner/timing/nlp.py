@@ -10,7 +10,18 @@ the Jacobians are banded and the problem grows linearly with n.
     subject to  the family's continuity conditions (equalities),
                 its exact limits: knot values (variable bounds), constant jerks, virtual knots,
                 certificates for the extremes inside segments (below),
-                h_min <= h_k <= h_max, or h_k >= 1e-6 of the time scale when unbounded.
+                h_min <= h_k <= h_max, or h_k >= 1e-6 of the time scale when unbounded
+                (bounds on the log-durations, below).
+
+Log-durations. The solver's duration variables are u_k = log(h_k / time scale),
+not h_k. In h the objective is linear and the knot states are v ~ D / h, so at a
+slow start (every limit slack but one) IPOPT's first Newton step, which sees no
+curvature in h and a linearised v, shrinks durations 50-fold in one step; the
+knot states then lie far from the spline of the new durations and the solve
+sinks into the restoration phase (clipped random walks, issue 23: 500 iterations
+without progress). In u the objective sum exp(u_k) has its own curvature, which
+bounds the step, and a step in u changes every duration by a factor, the way
+the limits scale (velocity by exp(-du), acceleration by exp(-2 du), ...).
 
 Certificates. Inside a segment a limited quantity f(s) = q^(d)(s h) (the
 velocity of a cubic, the jerk of a quintic, a position, ...) must stay within
@@ -27,6 +38,16 @@ By Lukacs' theorem such a polynomial is a sum of squares weighted by s and
   a0, a2 >= 0: A = (a0, p(1) - a0 - a2, a2), B = (p0, p0 + p1 - a0, a2 - p3),
   and each is non-negative when p0 >= 0, a2 - p3 >= 0, 4 a0 a2 >= (p(1) - a0 - a2)^2
   and 4 p0 (a2 - p3) >= (p0 + p1 - a0)^2.
+* f cubic, a position next to a via-point on the same bound (a "touch"): the
+  joint rests there (its knot velocity is fixed at 0, ``resting_sides`` in
+  formulations.py), so p has a double root at that end and the general
+  certificate degenerates (4 p0 (a2 - p3) >= (p0 + p1 - a0)^2 with p0 = p1 = 0
+  forces a0 = 0 through a constraint whose gradient vanishes, and a2 likewise;
+  IPOPT then stalls). Dividing the double root out leaves a linear factor,
+  non-negative on [0, 1] iff at both ends: at s = 0, p = p0 + s^2 (p2 + p3 s):
+  p0, p2, p2 + p3 >= 0; at s = 1, p = p(1) + (1-s)^2 (q2 + q3 (1-s)) with
+  q2 = p2 + 3 p3, q3 = -p3: p(1), p2 + 3 p3, p2 + 2 p3 >= 0. Linear rows, no
+  extra variable, exact.
 * f of higher degree (the quintic's velocity and position): a cut, the
   bound imposed at the extreme s_c the exact check found, p(s_c) >= 0 (no
   extra variable). Cuts only ever relax the true constraint, so they never
@@ -82,6 +103,7 @@ class Certificate:
         side: +1 for the upper bound, -1 for the lower.
         degree: the degree of q^(order) on the segment.
         centre: where a cut is (None for the exact kinds).
+        touch: for a touch, the end (0 or 1) where the polynomial has its double root.
     """
 
     block: int
@@ -91,10 +113,13 @@ class Certificate:
     side: int
     degree: int
     centre: float | None = None
+    touch: int | None = None
 
     @property
     def kind(self) -> str:
-        """``quadratic`` (exact, one variable), ``cubic`` (exact, two) or ``cut`` (none)."""
+        """``quadratic`` (exact, one variable), ``cubic`` (exact, two), ``touch`` (exact, none) or ``cut`` (none)."""
+        if self.touch is not None:
+            return "touch"
         return {2: "quadratic", 3: "cubic"}.get(self.degree, "cut")
 
     @property
@@ -119,6 +144,14 @@ def cubic_certificate(p, a0, a2) -> list:
     """Rows (each >= 0) certifying p0 + .. + p3 s^3 >= 0 on [0, 1] with free numbers ``a0``, ``a2`` >= 0."""
     total = p[0] + p[1] + p[2] + p[3]
     return [p[0], a2 - p[3], 4 * a0 * a2 - (total - a0 - a2) ** 2, 4 * p[0] * (a2 - p[3]) - (p[0] + p[1] - a0) ** 2]
+
+
+def touch_certificate(p, touch: int) -> list:
+    """Rows (each >= 0) certifying p0 + .. + p3 s^3 >= 0 on [0, 1] when p has a double root at s = ``touch``
+    (p1 = 0 for 0, p'(1) = 0 for 1; exact, module docstring)."""
+    if touch == 0:
+        return [p[0], p[2], p[2] + p[3]]
+    return [p[0] + p[1] + p[2] + p[3], p[2] + 3 * p[3], p[2] + 2 * p[3]]
 
 
 @dataclass(frozen=True)
@@ -167,7 +200,7 @@ class TimingNLP:
         problem = self.problem
         h = np.asarray(start, dtype=float)
         coefficients = problem.family.batch_coefficients(problem.via_points, h[None])[0]
-        core = np.concatenate((h / self.scales.time, self.formulation.state_values(coefficients, h)))
+        core = np.concatenate((np.log(h / self.scales.time), self.formulation.state_values(coefficients, h)))
         certificates: list[Certificate] = []
         iterations, status, rounds = 0, "not solved", 0
         while rounds < MAX_ROUNDS:
@@ -182,11 +215,13 @@ class TimingNLP:
             iterations += int(stats.get("iter_count", 0))
             status = str(stats.get("return_status", "unknown"))
             x = np.asarray(solution["x"], dtype=float).ravel()
-            if (status not in SOLVED or not np.all(np.isfinite(x))
-                    or np.any(x[:problem.segment_count] <= 0)):
+            with np.errstate(over="ignore"):
+                solved_h = self.scales.time * np.exp(x[:problem.segment_count])
+            if (status not in SOLVED or not np.all(np.isfinite(x)) or not np.all(np.isfinite(solved_h))
+                    or np.any(solved_h <= 0)):
                 break  # keep the last solved round (or the start): more rounds would not help
             core = x[:len(core)]
-            h = core[:problem.segment_count] * self.scales.time
+            h = self.scales.time * np.exp(core[:problem.segment_count])
             coefficients = problem.family.batch_coefficients(problem.via_points, h[None])[0]
             if problem.evaluate_durations(h[None]).feasible[0]:
                 break
@@ -220,6 +255,7 @@ class TimingNLP:
         """
         result = list(certificates)
         changed = False
+        resting = self.formulation.knot_resting_sides()
         for b, block in enumerate(self.blocks):
             orders = self._certified_orders(block)
             if not orders:
@@ -236,6 +272,10 @@ class TimingNLP:
                     for side, near in ((1, f[:, joint] > high - margin), (-1, f[:, joint] < low + margin)):
                         for row, c in np.argwhere(near & inside[:, joint]):
                             found = Certificate(b, int(row), joint, order, side, block.degree - order)
+                            if found.kind == "cubic" and order == 0:
+                                segment = block.segments[row]  # joins knots segment, segment + 1
+                                ends = [e for e in (0, 1) if resting[segment + e, joint] == side]
+                                found = replace(found, touch=ends[0] if ends else None)
                             changed |= _place(result, found, float(s[row, joint, c]))
         return result, changed
 
@@ -277,7 +317,7 @@ class TimingNLP:
             f[:c.degree + 1, i] = normalised[c.order:] * falling / h[segment] ** c.order
         values = []
         for kind, chosen in _kinds(certificates):
-            if kind == "cut":
+            if kind in ("cut", "touch"):
                 continue
             p = np.array(self._certified_polynomials([certificates[i] for i in chosen], list(f[:, chosen])))
             values.append(np.maximum(p[1] + 2 * p[0], 0.0))
@@ -310,7 +350,7 @@ def _place(certificates: list[Certificate], found: Certificate, location: float)
     return True
 
 
-_KINDS = ("quadratic", "cubic", "cut")
+_KINDS = ("quadratic", "cubic", "cut", "touch")
 
 
 def _kinds(certificates: list[Certificate]) -> list[tuple[str, np.ndarray]]:
@@ -335,8 +375,8 @@ class _Program:
 
         problem, scales = nlp.problem, nlp.scales
         segments = problem.segment_count
-        eta = ca.MX.sym("durations", segments)
-        h = eta * scales.time
+        eta = ca.MX.sym("log_durations", segments)
+        h = scales.time * ca.exp(eta)
         spline = nlp.formulation.build(h)
         self.spline = spline
         count = spline.equalities.shape[0]
@@ -350,9 +390,14 @@ class _Program:
             f = _certified_quantities(ca, certificates, spline.blocks, h)
             for kind, chosen in _kinds(certificates):
                 p = nlp._certified_polynomials([certificates[i] for i in chosen], [_pick(ca, fk, chosen) for fk in f])
-                variables = ca.MX.sym("certificate", {"quadratic": 1, "cubic": 2, "cut": 0}[kind] * len(chosen))
+                variables = ca.MX.sym("certificate", {"quadratic": 1, "cubic": 2}.get(kind, 0) * len(chosen))
                 extra.append(variables)
-                if kind == "cubic":
+                if kind == "touch":
+                    ends = np.array([certificates[i].touch for i in chosen])
+                    at_start, at_end = touch_certificate(p, 0), touch_certificate(p, 1)
+                    first = ca.DM((ends == 0).astype(float))
+                    certified = [first * a + (1 - first) * b for a, b in zip(at_start, at_end)]
+                elif kind == "cubic":
                     certified = cubic_certificate(p, variables[:len(chosen)], variables[len(chosen):])
                 elif kind == "quadratic":
                     certified = quadratic_certificate(p, variables)
@@ -369,8 +414,10 @@ class _Program:
         h_high = problem.bounds[1] / scales.time if problem.bounds is not None else np.inf
         h_low = max(problem.duration_floor / scales.time, 0.0 if problem.bounds is not None else DURATION_FLOOR)
         size = extra.shape[0]
-        self.lbx = np.concatenate((np.full(segments, h_low), spline.lower, np.zeros(size)))
-        self.ubx = np.concatenate((np.full(segments, h_high), spline.upper, np.full(size, np.inf)))
+        with np.errstate(divide="ignore"):
+            log_low, log_high = np.log(h_low), np.log(h_high)  # -inf, +inf where absent
+        self.lbx = np.concatenate((np.full(segments, log_low), spline.lower, np.zeros(size)))
+        self.ubx = np.concatenate((np.full(segments, log_high), spline.upper, np.full(size, np.inf)))
         self.lbg, self.ubg = np.concatenate(lower), np.concatenate(upper)
         variables = ca.vertcat(eta, spline.states, extra)
         remaining = remaining_time()  # IPOPT stops by itself at the time limit
