@@ -4,7 +4,7 @@ Tasks, for 6 joints under Table III limits, no bounds, objective ``time``:
 
 * ``smooth``: a random walk of ``n`` via-points, steps uniform in +-40 degrees
   per joint (seed = n);
-* ``clipped`` (issue 23, the hard class): the same kind of walk (seed = n + 1)
+* ``clipped`` (the hard class): the same kind of walk (seed = n + 1)
   clipped to the PUMA 560's position ranges (``robots/puma560.urdf``), so many
   via-points sit exactly on a range bound, joints rest over whole chords, and
   from n ~ 256 on consecutive via-points coincide (the problem merges them).

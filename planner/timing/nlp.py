@@ -18,7 +18,7 @@ not h_k. In h the objective is linear and the knot states are v ~ D / h, so at a
 slow start (every limit slack but one) IPOPT's first Newton step, which sees no
 curvature in h and a linearised v, shrinks durations 50-fold in one step; the
 knot states then lie far from the spline of the new durations and the solve
-sinks into the restoration phase (clipped random walks, issue 23: 500 iterations
+sinks into the restoration phase (clipped random walks: 500 iterations
 without progress). In u the objective sum exp(u_k) has its own curvature, which
 bounds the step, and a step in u changes every duration by a factor, the way
 the limits scale (velocity by exp(-du), acceleration by exp(-2 du), ...).
