@@ -421,7 +421,11 @@ class _Program:
         self.lbg, self.ubg = np.concatenate(lower), np.concatenate(upper)
         variables = ca.vertcat(eta, spline.states, extra)
         remaining = remaining_time()  # IPOPT stops by itself at the time limit
-        options = IPOPT_OPTIONS if remaining is None else {**IPOPT_OPTIONS, "ipopt.max_wall_time": max(remaining, 1e-3)}
+        # With certificates the expression graph is deep (quintic: ~10x fewer seconds once expanded to
+        # scalar form); without, expanding only costs time (hybrid, n = 1024: 2.2 s -> 3.5 s).
+        options = {**IPOPT_OPTIONS, "expand": bool(certificates)}
+        if remaining is not None:
+            options["ipopt.max_wall_time"] = max(remaining, 1e-3)
         self.solver = ca.nlpsol("timing", "ipopt", {"x": variables, "f": objective / scales.time,
                                                     "g": ca.vertcat(*rows)}, options)
 
