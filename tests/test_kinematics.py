@@ -11,18 +11,18 @@ from conftest import via_and_durations
 
 # Reference maxima, computed independently of this code: hybrid spline, Table II via-points, Table IV
 # durations [deg/s^k].
-SPEC_MAX = np.array([
+REFERENCE_MAX = np.array([
     [32.110, 22.713, 33.579, 49.996, 27.922, 20.286],
     [12.854, 11.525, 17.546, 28.088, 15.536, 8.544],
     [5.866, 5.482, 8.256, 14.109, 7.564, 3.222],
 ])
-SPEC_MEAN_VELOCITY = np.array([8.245, 5.697, 15.237, 13.370, 10.534, 6.182])
+REFERENCE_MEAN_VELOCITY = np.array([8.245, 5.697, 15.237, 13.370, 10.534, 6.182])
 
 
 def test_spec_reference_table(paper_via):
     figures = kinematic_figures(get_family("hybrid").build(paper_via, paper.DURATIONS_S))
-    np.testing.assert_allclose(np.rad2deg(figures.max_abs), SPEC_MAX, atol=1e-3 / 2 + 1e-9)
-    np.testing.assert_allclose(np.rad2deg(figures.mean_abs[0]), SPEC_MEAN_VELOCITY, atol=1e-3 / 2 + 1e-9)
+    np.testing.assert_allclose(np.rad2deg(figures.max_abs), REFERENCE_MAX, atol=1e-3 / 2 + 1e-9)
+    np.testing.assert_allclose(np.rad2deg(figures.mean_abs[0]), REFERENCE_MEAN_VELOCITY, atol=1e-3 / 2 + 1e-9)
 
 
 def test_spec_ratios_of_paper_and_all_three_seconds(paper_via, paper_limits):

@@ -43,7 +43,7 @@ def dense_cubic(via: np.ndarray, h: np.ndarray) -> np.ndarray:
 
 
 def dense_hybrid(via: np.ndarray, h: np.ndarray) -> np.ndarray:
-    """Oracle for §2.2: dense cubic, then 8x8 solves in physical time for the end segments."""
+    """Oracle for the hybrid family: dense cubic, then 8x8 solves in physical time for the end segments."""
     cubic = dense_cubic(via, h)
     result = np.zeros((len(h), 8))
     result[:, :4] = cubic
@@ -124,9 +124,9 @@ def test_interpolates_continuous_and_rests(name, data):
 
 
 def test_hybrid_end_segments_take_the_cubic_state_including_jerk(paper_via):
-    """Spec §2.2 step 2 matches the cubic's jerk of segment 0 (and S-1), not of the neighbour.
+    """The end segments match the cubic's jerk of segment 0 (and S-1), not of the neighbour.
 
-    The spec's §5 means (8.245, 5.697 deg/s) come from exactly this construction;
+    The reference means of test_kinematics (8.245, 5.697 deg/s) come from exactly this construction;
     matching the neighbouring segment's jerk instead (true C3) gives 8.254, 5.708.
     So jerk still jumps at the virtual knots, by the cubic spline's own jump there.
     """

@@ -1,8 +1,10 @@
 """Baseline optimizers on the same ``TimingProblem``: PSO, differential evolution, multi-start SLSQP.
 
-All of them see the repaired objective (spec §4) over the same search box as
-Cuckoo Search, so a comparison measures the search strategy alone. Default
-budgets match Cuckoo Search with the paper's settings (6000 evaluations).
+All of them see the repaired objective (the time-scaling repair of ``problem``) over
+the same search box as Cuckoo Search, so a comparison measures the search strategy
+alone. The default budgets of PSO and differential evolution match Cuckoo Search
+with the paper's settings (about 6000 evaluations); SLSQP's (starts x iterations)
+is not an evaluation budget: its finite differences spend far more.
 """
 
 from __future__ import annotations

@@ -28,7 +28,7 @@ import numpy as np
 from ..limits import JointLimits
 from ..splines import SplineFamily, derivative_coefficients, hermite7
 
-#: The hybrid family's end segment in normalised time (spec §2.2): the cubic end segment
+#: The hybrid family's end segment in normalised time: the cubic end segment
 #: y_0 + M_1 h^2 s^3 / 6 becomes y_0 + M_1 h^2 P(s), P the 7th-order polynomial from rest
 #: to the state (1/6, 1/2, 1, 1) of s^3 / 6 at s = 1. P, P' and P'' rise monotonically to
 #: 1/6, 1/2 and 1 at s = 1 (so the segment's speed and acceleration peak at its knot), and
@@ -172,7 +172,7 @@ def _per_joint(ca, row: np.ndarray, count: int):
 
 
 class CubicFormulation(SplineFormulation):
-    """``cubic`` and ``hybrid`` (spec §2.1, §2.2) with knot velocities v_k and accelerations M_k.
+    """``cubic`` and ``hybrid`` with knot velocities v_k and accelerations M_k.
 
     Knots k = 0 .. m-1 (m = n + 2), segments k = 0 .. S-1 (S = n + 1); v and M
     vanish at both ends and are variables at the n interior knots. The knot
@@ -271,7 +271,7 @@ class CubicFormulation(SplineFormulation):
 
 
 class QuinticFormulation(SplineFormulation):
-    """``quintic`` (spec §2.3) with knot velocities, accelerations, jerks and snaps.
+    """``quintic`` with knot velocities, accelerations, jerks and snaps.
 
     Knots are the via-points, segment k joins knots k and k+1 (S = n - 1).
     Velocity and acceleration vanish at both ends; jerk and snap are free there.

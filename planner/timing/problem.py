@@ -1,4 +1,4 @@
-"""The time-optimal timing problem of TIMING-SPEC §4, evaluated in batches.
+"""The time-optimal timing problem (README, "The maths"), evaluated in batches.
 
 Given joint via-points, a spline family and limits, find segment durations h
 minimising ``time`` (f = sum h) or ``time-jerk`` (f = K_t sum h + K_j sum_j
@@ -15,7 +15,7 @@ are raised to it and the whole vector is then scaled up until every limit
 holds again (scaling up never breaks a limit, by the lemma, and never
 breaks the floor).
 
-The time-scaling lemma (spec §4) turns this into an unconstrained search over
+The time-scaling lemma turns this into an unconstrained search over
 *shapes*: any candidate x is repaired in closed form to the feasible, tight
 h = s x. For ``time`` the scale is s* (the smallest feasible); for
 ``time-jerk`` it is max(s*, s_opt), where s_opt = (5 K_j E / (K_t T))^(1/6)
@@ -231,10 +231,10 @@ class TimingProblem:
             return self._raise_to_floor(h)
         for _ in range(_REPAIR_ROUNDS):
             h = np.clip(h, self.duration_floor, self.bounds[1])
-            coefficients, ratios, excess = self._figures(h)
-            if np.all(excess <= 1.0 + FEASIBILITY_TOLERANCE):
+            coefficients, ratios, scale = self._figures(h)
+            if np.all(scale <= 1.0 + FEASIBILITY_TOLERANCE):
                 break
-            h = h * np.maximum(excess, 1.0)[:, None]
+            h = h * np.maximum(scale, 1.0)[:, None]
         return self._score(h, ratios, self._position_excess(coefficients, h), self._energy(coefficients, h))
 
     def _raise_to_floor(self, h: np.ndarray) -> Evaluation:
