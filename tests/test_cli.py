@@ -159,5 +159,8 @@ def test_verbose_logs_the_ik_choices_on_stderr_and_only_then(tmp_path, capsys):
     for rule in ("optimal", "continuous"):
         lines = [line for line in err if line.startswith(f"planner.ik: {rule} rule, waypoint ")]
         assert len(lines) == waypoints and "solution " in lines[0] and "margin to the ranges" in lines[0]
+    starts = [line for line in err if line.startswith("planner.timing.nlp: start ")]
+    assert starts and all(", feasible, IPOPT Solve_Succeeded, " in line for line in starts)
+    assert not any(line.startswith("planner.timing.nlp: round ") for line in err)  # -vv only
     assert main(["plan", str(task), "--out", str(tmp_path / "b"), "--quiet"]) == 0
     assert capsys.readouterr().err == ""  # the handler went with the run

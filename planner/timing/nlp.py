@@ -67,6 +67,7 @@ tight; nothing is reported feasible that the exact check did not pass.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, replace
 from math import factorial
 
@@ -78,6 +79,8 @@ from ..native_output import stderr_captured
 from .formulations import FORMULATIONS, Scales, SegmentBlock
 from .problem import TimingProblem
 from .result import SearchTracker, StartReport, remaining_time
+
+log = logging.getLogger(__name__)
 
 MAX_ROUNDS = 12
 #: Extremes inside a segment beyond (1 - FLAG_MARGIN) of their bound get a certificate.
@@ -214,6 +217,8 @@ class TimingNLP:
             stats = program.solver.stats()
             iterations += int(stats.get("iter_count", 0))
             status = str(stats.get("return_status", "unknown"))
+            log.debug("round %d: %d certificates, IPOPT %s after %d iterations", rounds, len(certificates), status,
+                      int(stats.get("iter_count", 0)))
             x = np.asarray(solution["x"], dtype=float).ravel()
             with np.errstate(over="ignore"):
                 solved_h = self.scales.time * np.exp(x[:problem.segment_count])
@@ -485,3 +490,8 @@ def nlp_refine(problem: TimingProblem, starts: dict[str, np.ndarray], tracker: S
         tracker.starts.append(StartReport(label, float(result.objective[0]), bool(result.feasible[0]),
                                           outcome.iterations, outcome.rounds, outcome.status,
                                           outcome.certificates))
+        report = tracker.starts[-1]
+        (log.info if report.status in SOLVED and report.feasible else log.warning)(
+            "start %s: objective %.9g, %s, IPOPT %s, %d iterations in %d rounds, %d certificates", label,
+            report.objective, "feasible" if report.feasible else "INFEASIBLE", report.status, report.iterations,
+            report.rounds, report.certificates)
