@@ -58,9 +58,9 @@ from .analytic_ik import Solver, analytic_solver
 from .errors import IKError, InputError
 from .limits import JointLimits, rest_to_rest_time
 from .read_only import freeze_arrays
+from .robot import Robot
 
 log = logging.getLogger(__name__)
-from .robot import Robot
 
 TOLERANCE = 1e-10
 _DAMPING = 1e-3

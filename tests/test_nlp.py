@@ -273,7 +273,7 @@ def test_starts_agree_only_within_the_agreement_gap():
     assert result().starts_agree is None
 
 
-# ------------------------------------------------------------------ hard tasks: clipped random walks 
+# ------------------------------------------------------------------ hard tasks: clipped random walks
 
 #: The PUMA 560's position ranges [deg] (robots/puma560.urdf), the bounds the clipped walks sit on.
 PUMA_RANGES = np.deg2rad([[-160.0, -225.0, -45.0, -110.0, -100.0, -266.0], [160.0, 45.0, 225.0, 170.0, 100.0, 266.0]])
