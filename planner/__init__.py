@@ -10,9 +10,22 @@ from __future__ import annotations
 import importlib
 import logging
 
-from .errors import (IKError, InfeasibleError, InputError, MissingLimitError, OutputError, PlannerError,
-                     RecordingError, RobotError, RobotFileError, TaskError, UnknownFrameError, UnknownRobotError,
-                     UnsupportedRobotError, ViewerError)
+from .errors import (
+    IKError,
+    InfeasibleError,
+    InputError,
+    MissingLimitError,
+    OutputError,
+    PlannerError,
+    RecordingError,
+    RobotError,
+    RobotFileError,
+    TaskError,
+    UnknownFrameError,
+    UnknownRobotError,
+    UnsupportedRobotError,
+    ViewerError,
+)
 
 logging.getLogger(__name__).addHandler(logging.NullHandler())  # silent unless the application logs
 

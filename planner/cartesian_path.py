@@ -174,10 +174,10 @@ def follow_straight_lines(robot: Robot, poses: list[pin.SE3], waypoint_q: np.nda
         trajectory, timing = time_via_points(via)
         distance, angle, per_distance, per_angle = tool_deviation(robot, trajectory, poses, waypoint_via)
         exceeded = (distance > MARGIN * tolerance_m) | (angle > MARGIN * tolerance_rad)
+        outcome = (f"; inserting a pose in each of the {int(exceeded.sum())} intervals beyond the tolerances"
+                   if exceeded.any() else ", within the tolerances")
         note(f"straight-line round {rounds}: {int(counts.sum()) - len(counts)} poses inserted, the tool strays up "
-             f"to {1e3 * distance.max():.3g} mm and {np.rad2deg(angle.max()):.3g} deg"
-             + (f"; inserting a pose in each of the {int(exceeded.sum())} intervals beyond the tolerances" if exceeded.any()
-                else ", within the tolerances"))
+             f"to {1e3 * distance.max():.3g} mm and {np.rad2deg(angle.max()):.3g} deg{outcome}")
         if not exceeded.any():
             return StraightPath(via, waypoint_via, counts - 1, per_distance, per_angle, rounds), timing
         if rounds == MAX_ROUNDS:

@@ -196,11 +196,12 @@ def centred(robot: Robot, target: pin.SE3, solution: IKSolution, limits: JointLi
 
         dq = H^-1 (J^T lambda - g),     lambda = (J H^-1 J^T)^-1 (e + J H^-1 g),
 
-    shortened to a trust radius (``_CENTRING_STEP``, shrinking by ``_SHRINK`` per step in the second half
-    of the ``_CENTRING_STEPS``, which damps the oscillation the curvature of the self-motion can cause) and to ``_TO_BOUND`` of the way to any
-    bound. A joint on a bound first moves ``_INSIDE`` of its range inside. Newton steps (``solve_pose``
-    without clipping) then bring the residual to ``TOLERANCE``; the result is kept if it reaches the
-    pose (``accept``), stays in the ranges and has a margin no smaller than before.
+    shortened to a trust radius (``_CENTRING_STEP``, shrinking by ``_SHRINK`` per step in the second
+    half of the ``_CENTRING_STEPS``, which damps the oscillation the curvature of the self-motion can
+    cause) and to ``_TO_BOUND`` of the way to any bound. A joint on a bound first moves ``_INSIDE``
+    of its range inside. Newton steps (``solve_pose`` without clipping) then bring the residual to
+    ``TOLERANCE``; the result is kept if it reaches the pose (``accept``), stays in the ranges and
+    has a margin no smaller than before.
     """
     lower, upper = limits.lower, limits.upper
     bounded = np.isfinite(lower) & np.isfinite(upper)
@@ -472,9 +473,9 @@ def _continuous_branch(robot, poses, hints, start, limits, rng, restarts, accept
         chosen = min(distinct, key=lambda s: np.linalg.norm(_nearest_turn(robot, s.q, previous) - previous))
         q = _nearest_turn(robot, chosen.q, previous) if hint is None else chosen.q
         jump = float(np.linalg.norm(q - previous)) if index else 0.0
+        which = next(i for i, s in enumerate(distinct) if s is chosen)
         solutions.append(IKSolution(q, chosen.position_error, chosen.orientation_error, chosen.iterations,
-                                    attempts, jump, len(distinct), next(i for i, s in enumerate(distinct) if s is chosen),
-                                    range_margin_deg(q, limits)))
+                                    attempts, jump, len(distinct), which, range_margin_deg(q, limits)))
         _log_choice("continuous", index, solutions[-1])
         previous = q
     return solutions

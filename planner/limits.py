@@ -137,7 +137,7 @@ class JointLimits:
 
 
 def time_scale_factor(ratios: np.ndarray) -> np.ndarray:
-    """Smallest s with s * h feasible (the time-scaling lemma, README "The maths"): max_j max(r_j1, r_j2^(1/2), r_j3^(1/3)).
+    """Smallest s with s * h feasible: max_j max(r_j1, r_j2^(1/2), r_j3^(1/3)).
 
     Scaling every duration by s divides velocity by s, acceleration by s^2 and
     jerk by s^3, so the scaled trajectory meets every magnitude limit and

@@ -15,11 +15,11 @@ import numpy as np
 
 from .cartesian_path import StraightPath, follow_straight_lines, tool_deviation
 from .errors import IKError, InfeasibleError, MissingLimitError, PlannerError, TaskError
-from .ik import IKSolution, pose_from_position_quaternion, solve_waypoints
 from .export import coefficients_document, write_json, write_trajectory_csv
-from .outputs import output_folder
+from .ik import IKSolution, pose_from_position_quaternion, solve_waypoints
 from .kinematics import KinematicFigures, kinematic_figures
 from .limits import QUANTITIES, JointLimits, in_degrees
+from .outputs import output_folder
 from .progress import TerminalProgress
 from .recording import write_recording
 from .report import plot_profiles
@@ -206,9 +206,10 @@ def robot_limits(robot: Robot, task: Task) -> JointLimits:
     for quantity, yaml_key in (("acceleration", "acceleration_deg_s2"), ("jerk", "jerk_deg_s3")):
         missing = np.flatnonzero(~np.isfinite(getattr(limits, quantity)))
         if missing.size:
-            raise MissingLimitError(f"robot {robot.name!r} has no {quantity} limit for joint {limits.names[missing[0]]}; "
-                                    f"give limits.{yaml_key} in the task", joint=limits.names[missing[0]],
-                                    quantity=quantity, key=f"limits.{yaml_key}")
+            joint = limits.names[missing[0]]
+            raise MissingLimitError(f"robot {robot.name!r} has no {quantity} limit for joint {joint}; give "
+                                    f"limits.{yaml_key} in the task", joint=joint, quantity=quantity,
+                                    key=f"limits.{yaml_key}")
     return limits
 
 

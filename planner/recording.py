@@ -224,8 +224,9 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
 
     plots = [rrb.TimeSeriesView(origin=f"/profiles/{p}", name=f"{p} [{unit}]",
                                 plot_legend=rrb.PlotLegend(corner="LeftTop", visible=k == 0),
-                                axis_y=rrb.ScalarAxis(range=_position_range(values[0], result.limits) if k == 0
-                                                      else _symmetric_range(values[k], result.limits.magnitudes[k - 1])))
+                                axis_y=rrb.ScalarAxis(
+                                    range=_position_range(values[0], result.limits) if k == 0
+                                    else _symmetric_range(values[k], result.limits.magnitudes[k - 1])))
              for k, (p, unit) in enumerate(zip(_PROFILES, DEGREE_UNITS))]
     summary = rrb.TextDocumentView(origin=_SUMMARY, name="summary")
     if result.robot is not None:
@@ -598,7 +599,8 @@ def _numbers(where: str, data: dict, key: str, count: int | None = None, *, infi
     array = np.array(value, dtype=float)
     bad = np.flatnonzero(np.isnan(array) if infinite else ~np.isfinite(array))
     if bad.size:
-        raise RecordingError(f"{where}: {key}[{bad[0]}] is {array[bad[0]]}, not a {'number' if infinite else 'finite number'}")
+        wanted = "number" if infinite else "finite number"
+        raise RecordingError(f"{where}: {key}[{bad[0]}] is {array[bad[0]]}, not a {wanted}")
     return array
 
 

@@ -31,8 +31,8 @@ OPTIMIZER_LABELS = {"cuckoo": "CS (ours: repair + NLP)", "nlp": "sparse NLP (fro
                     "cuckoo-paper": "CS (plain, as the paper)", "pso": "PSO", "de": "DE (scipy)",
                     "slsqp": "SLSQP multi-start"}
 #: Budgets small enough for a test run (``quick``).
-QUICK_SETTINGS = {"cuckoo": {"iterations": 10}, "nlp": {}, "cuckoo-paper": {"iterations": 10}, "pso": {"iterations": 10},
-                  "de": {"evaluations": 600}, "slsqp": {"starts": 2, "iterations": 20}}
+QUICK_SETTINGS = {"cuckoo": {"iterations": 10}, "nlp": {}, "cuckoo-paper": {"iterations": 10},
+                  "pso": {"iterations": 10}, "de": {"evaluations": 600}, "slsqp": {"starts": 2, "iterations": 20}}
 
 
 @dataclass(frozen=True)

@@ -20,10 +20,17 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from .errors import (RobotError, RobotFileError, TaskError, UnknownFrameError, UnknownRobotError,
-                     UnsupportedRobotError, shown)
-from .native_output import stderr_captured
+from .errors import (
+    RobotError,
+    RobotFileError,
+    TaskError,
+    UnknownFrameError,
+    UnknownRobotError,
+    UnsupportedRobotError,
+    shown,
+)
 from .limits import JointLimits
+from .native_output import stderr_captured
 from .yaml_input import read_yaml
 
 #: Largest URDF file loaded [bytes]: the parser reads about 1 MB/s of XML.
@@ -131,8 +138,9 @@ class Robot:
             else:
                 failure = None
         if failure is not None:
-            raise RobotFileError(f"robot {name!r} of example-robot-data cannot be loaded with Pinocchio {pin.__version__}: "
-                             f"{type(failure).__name__}: {_first_line(str(failure))}{_detail(loader_log)}") from None
+            raise RobotFileError(f"robot {name!r} of example-robot-data cannot be loaded with Pinocchio "
+                                 f"{pin.__version__}: {type(failure).__name__}: {_first_line(str(failure))}"
+                                 f"{_detail(loader_log)}") from None
         if model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer":
             raise UnsupportedRobotError(f"robot {name!r} has a floating base; only fixed-base arms can be planned")
         package_dirs = tuple(Path(d) for d in (loader.model_path, Path(loader.model_path).parent))

@@ -43,10 +43,10 @@ import numpy as np
 
 from .errors import SHOWN_VALUE_CHARS, TaskError, shown
 from .ik import BRANCH_RULES
+from .read_only import freeze_arrays
 from .splines import FAMILIES
 from .timing import OPTIMIZERS, cuckoo_search
 from .timing.problem import OBJECTIVES
-from .read_only import freeze_arrays
 from .yaml_input import key_path, read_yaml
 
 SCHEMA_VERSION = 1

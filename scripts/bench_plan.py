@@ -33,7 +33,8 @@ def main() -> None:
         imports.append(time.perf_counter() - start)
         with tempfile.TemporaryDirectory() as out:
             start = time.perf_counter()
-            subprocess.run([sys.executable, "-m", "planner.cli", "plan", str(TASK), "--out", out, "--quiet"], check=True)
+            command = [sys.executable, "-m", "planner.cli", "plan", str(TASK), "--out", out, "--quiet"]
+            subprocess.run(command, check=True)
             commands.append(time.perf_counter() - start)
             for stage, seconds in json.loads((Path(out) / "summary.json").read_text())["timings_s"].items():
                 stages.setdefault(stage, []).append(seconds)

@@ -40,7 +40,8 @@ def main() -> None:
     limits = paper.paper_limits()
     via = np.deg2rad(paper.VIA_POINTS_DEG)
     print(f"family {family.name}, B = {args.batch}, median of {args.repeats} runs")
-    print(f"paper case (n = 8, J = 6): {median_us_per_candidate(family, via, limits, args.batch, args.repeats):8.1f} us/candidate")
+    paper_us = median_us_per_candidate(family, via, limits, args.batch, args.repeats)
+    print(f"paper case (n = 8, J = 6): {paper_us:8.1f} us/candidate")
     rng = np.random.default_rng(1)
     for n in (10, 100, 1000):
         via = np.cumsum(rng.uniform(-0.5, 0.5, (n, 6)), axis=0)

@@ -46,7 +46,8 @@ def main() -> None:
     print("1. bounds [3, 5] s, CS paper budget: total time "
           + ", ".join(f"{r.total_time:.3f}" for r in bounded_results) + " s (paper: 38.311 s)")
 
-    plain, plain_wall = zip(*(timed(lambda s=s: optimize(free, "cuckoo", seed=s, polish=False)) for s in range(args.seeds)))
+    plain, plain_wall = zip(*(timed(lambda s=s: optimize(free, "cuckoo", seed=s, polish=False))
+                              for s in range(args.seeds)))
     default, default_wall = zip(*(timed(lambda s=s: optimize(free, "default", seed=s)) for s in range(args.seeds)))
     polished = [optimize(free, "cuckoo", seed=s) for s in range(3)]
     slsqp = optimize(free, "slsqp", seed=0)

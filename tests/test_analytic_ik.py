@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 
 from planner.analytic_ik import analytic_solver
-from planner.ik import (closed_form_solver, pose_error, pose_solutions, range_margin_deg, solve_pose,
-                        solve_waypoints)
+from planner.ik import closed_form_solver, pose_error, pose_solutions, range_margin_deg, solve_pose, solve_waypoints
 from planner.robot import Robot
 
 ROOT = Path(__file__).resolve().parents[1]

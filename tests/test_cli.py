@@ -29,7 +29,8 @@ def test_plan_writes_consistent_outputs(tmp_path, capsys):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["total_time_s"] == pytest.approx(27.0) and summary["feasible"] is True
     assert summary["optimizer"]["algorithm"] == "cuckoo" and summary["optimizer"]["evaluations"] > 0
-    assert len(summary["max_ratio"]["jerk"]) == 6 and max(summary["max_ratio"]["acceleration"]) == pytest.approx(0.827, abs=1e-3)
+    assert len(summary["max_ratio"]["jerk"]) == 6
+    assert max(summary["max_ratio"]["acceleration"]) == pytest.approx(0.827, abs=1e-3)
     times, values = read_trajectory_csv(out / "trajectory.csv")
     assert times[-1] == pytest.approx(27.0) and np.allclose(np.diff(times)[:-1], 0.01)
     # The samples pass through the via-points at the via times and respect the summary's maxima.
@@ -142,7 +143,7 @@ def test_the_printed_replay_command_runs_as_shown(tmp_path):
     done = subprocess.run([str(script), "plan", str(small_task(tmp_path, bounds_s=[3, 5])), "--out", "out"],
                           cwd=tmp_path, env=environment, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
-    line = next(l for l in done.stdout.splitlines() if l.startswith("open the recording with: "))
+    line = next(text for text in done.stdout.splitlines() if text.startswith("open the recording with: "))
     command = line.removeprefix("open the recording with: ").split("  (")[0] + " --check"
     assert command.startswith(f"{script} replay ")
     check = subprocess.run(command, shell=True, cwd=tmp_path, env=environment, capture_output=True, text=True,

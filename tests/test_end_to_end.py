@@ -8,11 +8,10 @@ from hypothesis import event, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
+from conftest import assert_plan_holds, dense_extremes
 from planner import InfeasibleError, JointLimits, get_family
 from planner.pipeline import plan
 from planner.task import parse_task
-
-from conftest import assert_plan_holds, dense_extremes
 
 _DEGREES = st.floats(-170.0, 170.0, allow_nan=False).map(lambda x: round(x, 3))
 

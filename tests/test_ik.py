@@ -8,8 +8,15 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from planner import IKError, InputError, paper
-from planner.ik import (choose_branches, pose_error, pose_from_position_quaternion, pose_solutions, solve_pose,
-                        solve_waypoints, turn_variants)
+from planner.ik import (
+    choose_branches,
+    pose_error,
+    pose_from_position_quaternion,
+    pose_solutions,
+    solve_pose,
+    solve_waypoints,
+    turn_variants,
+)
 from planner.limits import rest_to_rest_time
 from planner.robot import Robot
 

@@ -4,10 +4,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 from scipy.integrate import quad
 
+from conftest import via_and_durations
 from planner import JointLimits, get_family, kinematic_figures, paper, time_scale_factor
 from planner.kinematics import batch_scale_factors, column_roots, max_abs
-
-from conftest import via_and_durations
 
 # Reference maxima, computed independently of this code: hybrid spline, Table II via-points, Table IV
 # durations [deg/s^k].

@@ -5,8 +5,15 @@ import pinocchio as pin
 import pytest
 import yaml
 
-from planner import (InfeasibleError, MissingLimitError, PlannerError, TaskError, UnknownFrameError,
-                     UnknownRobotError, paper)
+from planner import (
+    InfeasibleError,
+    MissingLimitError,
+    PlannerError,
+    TaskError,
+    UnknownFrameError,
+    UnknownRobotError,
+    paper,
+)
 from planner.cli import main
 from planner.ik import pose_from_position_quaternion
 from planner.pipeline import plan
@@ -51,7 +58,8 @@ def paper_cartesian(**changes) -> dict:
      "no frame 'hand'"),
     ({"robot": {"name": "ur5", "tool_frame": "tool0"}}, MissingLimitError,
      "robot 'ur5' has no acceleration limit for joint shoulder_pan_joint; give limits.acceleration_deg_s2"),
-    ({"limits": {"jerk_deg_s3": [1, 2]}}, TaskError, r"^limits.jerk_deg_s3: must have 6 values for robot 'puma560', got 2"),
+    ({"limits": {"jerk_deg_s3": [1, 2]}}, TaskError,
+     r"^limits.jerk_deg_s3: must have 6 values for robot 'puma560', got 2"),
 ])
 def test_robot_task_errors(changes, error, message):
     with pytest.raises(error, match=message):

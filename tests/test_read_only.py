@@ -1,10 +1,9 @@
 import numpy as np
 import pytest
 
+from conftest import ROOT
 from planner import JointLimits, get_family, kinematic_figures, load_task, paper
 from planner.timing import TimingProblem, optimize
-
-from conftest import ROOT
 
 
 def test_frozen_values_hold_read_only_arrays_and_leave_the_callers_alone():

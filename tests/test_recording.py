@@ -315,7 +315,8 @@ def test_malformed_recordings_are_errors_naming_the_field(case, tmp_path, capsys
 def test_check_fails_on_violated_limits(tmp_path, capsys):
     tight = _definition(**{"limits.velocity": [0.1, 5.0]})
     assert main(["replay", str(write_like_planner(tmp_path / "r.rrd", definition=tight)), "--check"]) == 1
-    assert "VIOLATIONS: joint shoulder velocity 28.6479 deg/s exceeds its limit 5.72958 deg/s" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "VIOLATIONS: joint shoulder velocity 28.6479 deg/s exceeds its limit 5.72958 deg/s" in out
 
 
 @pytest.mark.parametrize("offset", [1e-6, 1e-8])
@@ -397,7 +398,8 @@ def test_replay_reports_a_viewer_that_fails_at_start_up(recording, monkeypatch, 
 
     monkeypatch.setenv("DISPLAY", ":99")
     monkeypatch.setattr(module, "VIEWER_COMMAND",
-                        (sys.executable, "-c", "import sys; print('starting', flush=True); sys.exit('cannot open display :99')"))
+                        (sys.executable, "-c",
+                         "import sys; print('starting', flush=True); sys.exit('cannot open display :99')"))
     assert main(["replay", str(recording)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "exited with code 1" in err and "cannot open display :99" in err
@@ -511,6 +513,7 @@ def static_components(path, content: str) -> dict[str, dict[str, list]]:
 
 def test_each_joint_has_one_colour_and_its_name_in_every_plot(planned):
     import rerun as rr
+
     from planner.recording import JOINT_COLOURS
     result, out = planned
     styles = static_components(out / "trajectory.rrd", "/profiles/**")

@@ -10,7 +10,8 @@ from planner.limits import JointLimits
 from planner.report import markdown_cell, markdown_table, plot_profiles
 
 #: Names that are markup somewhere (mathtext, TeX, legend's hidden "_" labels, printf) or lack glyphs in the font.
-AWKWARD_NAMES = ["$x^2$", "$\\frac{$", "$x^$ and $y_$", "\\frac{", "_base", "100%", "a_b^c", "关节一", "مفصل", "😀 wrist", "a/b c", "$", ""]
+AWKWARD_NAMES = ["$x^2$", "$\\frac{$", "$x^$ and $y_$", "\\frac{", "_base", "100%", "a_b^c", "关节一", "مفصل",
+                 "😀 wrist", "a/b c", "$", ""]
 
 
 def trajectory_for(joints: int):

@@ -5,9 +5,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_report import assert_tables_render
 
 from planner import paper, reproduce
-from test_report import assert_tables_render
 
 PROJECT = Path(__file__).resolve().parents[1]
 #: Anything that would point outside the project: developer notes, absolute or parent paths, the web.

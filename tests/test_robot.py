@@ -6,8 +6,15 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from planner import (MissingLimitError, RobotError, RobotFileError, UnknownFrameError, UnknownRobotError,
-                     UnsupportedRobotError, paper)
+from planner import (
+    MissingLimitError,
+    RobotError,
+    RobotFileError,
+    UnknownFrameError,
+    UnknownRobotError,
+    UnsupportedRobotError,
+    paper,
+)
 from planner.robot import Robot, load_robot
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -3,10 +3,9 @@ import pytest
 from hypothesis import given
 from scipy.interpolate import make_interp_spline
 
+from conftest import via_and_durations
 from planner import InputError, PlannerError, get_family
 from planner.splines import PiecewisePolynomial, hermite7
-
-from conftest import via_and_durations
 
 
 def dense_cubic(via: np.ndarray, h: np.ndarray) -> np.ndarray:
@@ -25,18 +24,23 @@ def dense_cubic(via: np.ndarray, h: np.ndarray) -> np.ndarray:
         return r
 
     for order, value in ((0, via[0]), (1, 0.0), (2, 0.0)):
-        rows.append(row(0, order, 0.0)); rhs.append(value)
+        rows.append(row(0, order, 0.0))
+        rhs.append(value)
     for order, value in ((0, via[-1]), (1, 0.0), (2, 0.0)):
-        rows.append(row(segments - 1, order, h[-1])); rhs.append(value)
+        rows.append(row(segments - 1, order, h[-1]))
+        rhs.append(value)
     # Given interior knots 2..m-3 are via[1..n-2]: position at the end of segment k-1 and start of k.
     for i, knot in enumerate(range(2, n)):
-        rows.append(row(knot - 1, 0, h[knot - 1])); rhs.append(via[i + 1])
-        rows.append(row(knot, 0, 0.0)); rhs.append(via[i + 1])
+        rows.append(row(knot - 1, 0, h[knot - 1]))
+        rhs.append(via[i + 1])
+        rows.append(row(knot, 0, 0.0))
+        rhs.append(via[i + 1])
     # Continuity of position (virtual knots only), velocity, acceleration at every interior knot.
     for knot in range(1, segments):
         orders = (0, 1, 2) if knot in (1, segments - 1) else (1, 2)
         for order in orders:
-            rows.append(row(knot - 1, order, h[knot - 1]) - row(knot, order, 0.0)); rhs.append(0.0)
+            rows.append(row(knot - 1, order, h[knot - 1]) - row(knot, order, 0.0))
+            rhs.append(0.0)
     matrix = np.array(rows)
     assert matrix.shape == (4 * segments, 4 * segments)
     return np.linalg.solve(matrix, np.array(rhs)).reshape(segments, 4)
@@ -58,7 +62,8 @@ def dense_hybrid(via: np.ndarray, h: np.ndarray) -> np.ndarray:
             for order in range(4):
                 r = [np.prod(range(i - order + 1, i + 1)) * tau ** (i - order) if i >= order else 0.0
                      for i in range(8)]
-                rows.append(r); rhs.append(values[order])
+                rows.append(r)
+                rhs.append(values[order])
         return np.linalg.solve(np.array(rows), np.array(rhs))
 
     result[0] = septic([via[0], 0, 0, 0], state(cubic[0], h[0]), h[0])

@@ -11,8 +11,8 @@ import yaml
 
 from planner import TaskError, paper
 from planner.task import RANGES, _optimizer_parameters, load_task, parse_task
-from planner.yaml_input import MAX_FILE_BYTES, MAX_NESTING, MAX_VALUES
 from planner.timing import OPTIMIZERS
+from planner.yaml_input import MAX_FILE_BYTES, MAX_NESTING, MAX_VALUES
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_JOINT = ROOT / "scripts" / "tasks" / "puma560_paper_joint.yaml"
@@ -132,7 +132,8 @@ def test_duplicate_keys_are_refused_with_key_path_and_line(tmp_path, text, path)
 
 
 def test_merge_keys_may_be_overridden(tmp_path):
-    text = PAPER_JOINT.read_text().replace("trajectory: {family: hybrid}", "trajectory: {<<: {family: cubic}, family: hybrid}")
+    text = PAPER_JOINT.read_text().replace("trajectory: {family: hybrid}",
+                                           "trajectory: {<<: {family: cubic}, family: hybrid}")
     assert load_task(write(tmp_path, text)).family == "hybrid"
 
 
@@ -203,7 +204,8 @@ def test_recursive_aliases_are_refused(tmp_path, text):
 
 
 def test_aliases_within_bounds_are_fine(tmp_path):
-    text = PAPER_CARTESIAN.read_text().replace("hint_deg: [10, 15, 45, 5, 10, 6]", "hint_deg: &hint [10, 15, 45, 5, 10, 6]")
+    text = PAPER_CARTESIAN.read_text().replace("hint_deg: [10, 15, 45, 5, 10, 6]",
+                                               "hint_deg: &hint [10, 15, 45, 5, 10, 6]")
     text = text.replace("hint_deg: [-50, 10, 50, -30, 10, 20]", "hint_deg: *hint")
     text = text.replace("../../robots/puma560.urdf", str(ROOT / "robots" / "puma560.urdf"))
     task = load_task(write(tmp_path, text))
@@ -241,7 +243,8 @@ def test_escaped_control_characters_in_strings_are_refused():
 
 
 @pytest.mark.parametrize("text", [
-    "version: !!timestamp 2001-13-45\n", "version: !!timestamp soon\n", f"version: {'1' * 5000}\n", "version: !!int 0b\n",
+    "version: !!timestamp 2001-13-45\n", "version: !!timestamp soon\n", f"version: {'1' * 5000}\n",
+    "version: !!int 0b\n",
     "version: !!float x\n", "version: !!binary 'a'\n", "version: !!python/object:os.system x\n",
     "? [a]\n: 1\n", "version: 1\n---\nversion: 1\n", "version: *nowhere\n",
 ])
@@ -293,7 +296,8 @@ def test_numbers_out_of_range_are_refused(where, value, message):
     ("waypoints.joints_deg[0]", []), ("waypoints.cartesian[0].xyz_m", []), ("waypoints.cartesian[0].hint_deg", []),
     ("ik.start_deg", []), ("limits.jerk_deg_s3", 5), ("limits.jerk_deg_s3", {"a": 1}), ("limits.position_deg", "x"),
     ("limits.position_deg", [[1, 2, 3]]), ("waypoints.joints_deg", "abc"), ("optimizer.bounds_s", 3),
-    ("optimizer.weights", [1]), ("waypoints.cartesian[0]", [1, 2, 3]), ("waypoints.cartesian[0].quat_xyzw", [0, 0, 0, 0]),
+    ("optimizer.weights", [1]), ("waypoints.cartesian[0]", [1, 2, 3]),
+    ("waypoints.cartesian[0].quat_xyzw", [0, 0, 0, 0]),
 ])
 def test_empty_and_misshapen_lists_are_refused(where, value):
     with pytest.raises(TaskError) as caught:

@@ -88,7 +88,8 @@ def cuckoo_search(problem: TimingProblem, *, nests: int = 20, iterations: int = 
     x, fitness = assess(lower + (upper - lower) * rng.random((nests, dimension)))
     for _ in range(iterations):
         best = x[np.argmin(fitness)]
-        levy = rng.standard_normal((nests, dimension)) * sigma / np.abs(rng.standard_normal((nests, dimension))) ** (1 / beta)
+        levy = (rng.standard_normal((nests, dimension)) * sigma
+                / np.abs(rng.standard_normal((nests, dimension))) ** (1 / beta))
         proposal = np.clip(x + alpha * levy * (x - best) * rng.standard_normal((nests, dimension)), lower, upper)
         x, fitness = _greedy(x, fitness, *assess(proposal))
         abandon = rng.random((nests, dimension)) < pa
