@@ -8,10 +8,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .limits import default_joint_names
+from .limits import PROFILE_QUANTITIES, default_joint_names
 from .splines import PiecewisePolynomial
 
-_QUANTITY_COLUMNS = (("q", "deg"), ("v", "deg_s"), ("a", "deg_s2"), ("j", "deg_s3"))
+_QUANTITY_COLUMNS = tuple((q.column, q.key_unit) for q in PROFILE_QUANTITIES)
 
 
 def json_ready(value, digits: int | None = None):

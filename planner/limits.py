@@ -10,12 +10,48 @@ import numpy as np
 from .errors import InputError
 from .read_only import freeze_arrays
 
+
+@dataclass(frozen=True)
+class Quantity:
+    """One derivative of a joint's motion, and every name it goes by.
+
+    Attributes:
+        name: ``position``, ``velocity``, ``acceleration``, ``jerk``.
+        order: the derivative order d (0 = position): scaling every duration by s divides it by s^d.
+        unit: its SI unit (``rad/s``); degree_unit: its unit in task files, messages and
+            outputs (``deg/s``).
+        key: its key in task files, robot limits files and ``summary.json`` (``velocity_deg_s``).
+        column: the prefix of its ``trajectory.csv`` columns (``v``: ``v_<joint>_deg_s``).
+    """
+
+    name: str
+    order: int
+    unit: str
+    degree_unit: str
+    key: str
+    column: str
+
+    @property
+    def key_unit(self) -> str:
+        """The degree unit as written in keys and column names (``deg_s2``)."""
+        return self.key.removeprefix(f"{self.name}_")
+
+
+#: The one table of the quantities: position and the limited derivatives 1..3, in order.
+PROFILE_QUANTITIES = (
+    Quantity("position", 0, "rad", "deg", "position_deg", "q"),
+    Quantity("velocity", 1, "rad/s", "deg/s", "velocity_deg_s", "v"),
+    Quantity("acceleration", 2, "rad/s^2", "deg/s^2", "acceleration_deg_s2", "a"),
+    Quantity("jerk", 3, "rad/s^3", "deg/s^3", "jerk_deg_s3", "j"),
+)
+#: The derivatives with magnitude limits (orders 1..3).
+LIMITED = PROFILE_QUANTITIES[1:]
 #: Names of the derivative orders 1..3, as used in ratios, reports and task files.
-QUANTITIES = ("velocity", "acceleration", "jerk")
+QUANTITIES = tuple(q.name for q in LIMITED)
 #: SI units of position and of the derivative orders 1..3.
-UNITS = ("rad", "rad/s", "rad/s^2", "rad/s^3")
+UNITS = tuple(q.unit for q in PROFILE_QUANTITIES)
 #: Units of position and of the derivative orders 1..3 in messages and reports (task files use degrees).
-DEGREE_UNITS = ("deg", "deg/s", "deg/s^2", "deg/s^3")
+DEGREE_UNITS = tuple(q.degree_unit for q in PROFILE_QUANTITIES)
 
 
 def in_degrees(value: float, order: int) -> str:

@@ -18,7 +18,7 @@ from .errors import IKError, InfeasibleError, MissingLimitError, PlannerError, T
 from .export import coefficients_document, write_json, write_trajectory_csv
 from .ik import IKSolution, pose_from_position_quaternion, solve_waypoints
 from .kinematics import KinematicFigures, kinematic_figures
-from .limits import QUANTITIES, JointLimits, in_degrees
+from .limits import LIMITED, QUANTITIES, JointLimits, in_degrees
 from .outputs import output_folder
 from .progress import TerminalProgress
 from .recording import write_recording
@@ -28,7 +28,6 @@ from .splines import MAX_SAMPLES, PiecewisePolynomial
 from .task import Task, check_limit_counts, check_task, load_task, parse_task
 from .timing import OptimizationResult, TimingProblem, optimize
 
-_LIMIT_UNITS = ("deg_s", "deg_s2", "deg_s3")
 #: Significant digits of the numbers in summary.json (coefficients.json keeps every digit).
 SUMMARY_DIGITS = 12
 
@@ -83,7 +82,7 @@ class PlanResult:
         to_deg = np.rad2deg
 
         def per_quantity_deg(table):
-            return {f"{q}_{_LIMIT_UNITS[d]}": to_deg(table[d]) for d, q in enumerate(QUANTITIES)}
+            return {q.key: to_deg(table[d]) for d, q in enumerate(LIMITED)}
         return {
             "task": self.task.name,
             "family": self.task.family,
@@ -198,12 +197,12 @@ def robot_limits(robot: Robot, task: Task) -> JointLimits:
     """The robot's limits with the task's overrides; acceleration and jerk limits must exist."""
     check_limit_counts(task.limits, robot.dof, f"for robot {robot.name!r}")
     if robot.placeholder_velocity and task.limits.get("velocity") is None:
-        raise MissingLimitError(f"robot {robot.name!r} gives joint {robot.placeholder_velocity[0]} a velocity limit of "
-                                f"0 in its URDF (a placeholder: the joint could not move); give limits.velocity_deg_s "
-                                f"in the task", joint=robot.placeholder_velocity[0], quantity="velocity",
-                                key="limits.velocity_deg_s")
+        joint, key = robot.placeholder_velocity[0], f"limits.{LIMITED[0].key}"
+        raise MissingLimitError(f"robot {robot.name!r} gives joint {joint} a velocity limit of 0 in its URDF (a "
+                                f"placeholder: the joint could not move); give {key} in the task", joint=joint,
+                                quantity=LIMITED[0].name, key=key)
     limits = robot.limits.with_overrides(names=tuple(robot.joint_names), **task.limits)
-    for quantity, yaml_key in (("acceleration", "acceleration_deg_s2"), ("jerk", "jerk_deg_s3")):
+    for quantity, yaml_key in ((q.name, q.key) for q in LIMITED[1:]):  # a velocity limit is optional
         missing = np.flatnonzero(~np.isfinite(getattr(limits, quantity)))
         if missing.size:
             joint = limits.names[missing[0]]

@@ -53,12 +53,12 @@ import numpy as np
 
 from .errors import InputError, RecordingError, ViewerError, shown
 from .kinematics import kinematic_figures
-from .limits import DEGREE_UNITS, QUANTITIES, JointLimits
+from .limits import DEGREE_UNITS, PROFILE_QUANTITIES, QUANTITIES, JointLimits
 from .splines import PiecewisePolynomial
 
 APPLICATION_ID = "planner"
 FORMAT = "planner-recording/v2"
-_PROFILES = ("position", *QUANTITIES)
+_PROFILES = tuple(q.name for q in PROFILE_QUANTITIES)
 _LIMIT_FIELDS = ("lower", "upper", *QUANTITIES)
 _SAMPLES = "/trajectory/samples"
 _DEFINITION = "/trajectory/definition"

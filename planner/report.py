@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .limits import DEGREE_UNITS, QUANTITIES, JointLimits
+from .limits import PROFILE_QUANTITIES, JointLimits
 from .splines import PiecewisePolynomial
 
 #: Most samples per joint drawn in a profile figure.
@@ -152,7 +152,7 @@ def plot_profiles(trajectory: PiecewisePolynomial, limits: JointLimits, path: Pa
         colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
         lines = _draw_column(axes, column, limits, colours, rate_hz)
         for k, axis in enumerate(axes):
-            axis.set_ylabel(f"{('position', *QUANTITIES)[k]} [{DEGREE_UNITS[k]}]")
+            axis.set_ylabel(f"{PROFILE_QUANTITIES[k].name} [{PROFILE_QUANTITIES[k].degree_unit}]")
         keys, labels = _legend_keys([column], "", "")
         # Labels given explicitly: legend() would drop names starting with "_".
         axes[0].legend(lines + keys, names + labels, ncol=min(trajectory.joint_count + len(keys), 5),
@@ -181,7 +181,7 @@ def plot_profile_columns(columns: list[ProfileColumn], limits: JointLimits, path
         colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
         lines = [_draw_column(axes[:, c], column, limits, colours, rate_hz) for c, column in enumerate(columns)][0]
         for k in range(4):
-            axes[k, 0].set_ylabel(f"{('position', *QUANTITIES)[k]} [{DEGREE_UNITS[k]}]")
+            axes[k, 0].set_ylabel(f"{PROFILE_QUANTITIES[k].name} [{PROFILE_QUANTITIES[k].degree_unit}]")
         keys, labels = _legend_keys(columns, points_label, levels_label)
         heading = "\n".join(part for part in (title, note) if part)
         below_heading = 0.995 - (0.013 * (heading.count("\n") + 1) + 0.005 if heading else 0.0)

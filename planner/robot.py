@@ -29,7 +29,7 @@ from .errors import (
     UnsupportedRobotError,
     shown,
 )
-from .limits import JointLimits
+from .limits import LIMITED, JointLimits
 from .native_output import stderr_captured
 from .yaml_input import read_yaml
 
@@ -37,7 +37,7 @@ from .yaml_input import read_yaml
 MAX_URDF_BYTES = 16 * 2**20
 #: Largest mesh file a URDF may name [bytes]: a detailed industrial-arm link is a few MB.
 MAX_MESH_BYTES = 256 * 2**20
-_LIMIT_FILE_KEYS = {"acceleration_deg_s2": "acceleration", "jerk_deg_s3": "jerk"}
+_LIMIT_FILE_KEYS = {q.key: q.name for q in LIMITED[1:]}  # acceleration and jerk (URDFs give velocity)
 #: Pinocchio's single-axis revolute joints, the only ones planned (task keys are in degrees).
 _REVOLUTE = ("JointModelRX", "JointModelRY", "JointModelRZ", "JointModelRevoluteUnaligned")
 #: Pinocchio's prismatic joints, named as such when refused.

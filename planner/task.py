@@ -43,6 +43,7 @@ import numpy as np
 
 from .errors import SHOWN_VALUE_CHARS, TaskError, shown
 from .ik import BRANCH_RULES
+from .limits import LIMITED, PROFILE_QUANTITIES
 from .read_only import freeze_arrays
 from .splines import FAMILIES
 from .timing import OPTIMIZERS, cuckoo_search
@@ -63,8 +64,9 @@ MAX_SEED = 2**63 - 1
 MAX_VIA_POINTS = 5000
 _TOP_KEYS = ("version", "name", "robot", "waypoints", "limits", "ik", "path", "trajectory", "optimizer")
 PATH_MODES = ("joint", "linear")
-_LIMIT_KEYS = {"velocity_deg_s": "velocity", "acceleration_deg_s2": "acceleration", "jerk_deg_s3": "jerk"}
-_LIMIT_KEY_OF = {**{name: key for key, name in _LIMIT_KEYS.items()}, "lower": "position_deg", "upper": "position_deg"}
+_LIMIT_KEYS = {q.key: q.name for q in LIMITED}
+_LIMIT_KEY_OF = {**{name: key for key, name in _LIMIT_KEYS.items()}, "lower": PROFILE_QUANTITIES[0].key,
+                 "upper": PROFILE_QUANTITIES[0].key}
 _COMMON_OPTIMIZER_KEYS = ("algorithm", "seed", "bounds_s", "objective", "weights", "time_limit_s")
 #: Default wall-time limit of the timing optimization [s]: past it, the best timing found so far is kept.
 TIME_LIMIT_S = 120.0

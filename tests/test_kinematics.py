@@ -168,3 +168,22 @@ def test_a_limit_exceeded_by_any_margin_is_a_violation(paper_via, excess):
                                acceleration=figures.max_abs[1] * shrink, jerk=figures.max_abs[2] * shrink)
     lines = figures.violations(tight)
     assert len(lines) == 5 * 6  # three magnitudes and both sides of the range, every joint
+
+
+def test_the_quantity_table_agrees_with_the_maths_and_the_outputs(paper_via, tmp_path):
+    """Each quantity's order is the power by which time scaling divides it; its names are the ones
+    task files, summary.json and trajectory.csv use."""
+    from planner.export import write_trajectory_csv
+    from planner.limits import LIMITED, PROFILE_QUANTITIES
+    trajectory = get_family("hybrid").build(paper_via, np.full(9, 3.0))
+    slower = get_family("hybrid").build(paper_via, np.full(9, 6.0))
+    times = np.linspace(0.0, trajectory.total_time, 2001)
+    for quantity in PROFILE_QUANTITIES:
+        fast = np.abs(trajectory.evaluate(times, quantity.order)).max()
+        slow = np.abs(slower.evaluate(2 * times, quantity.order)).max()
+        assert slow == pytest.approx(fast / 2 ** quantity.order, rel=1e-9)
+        assert quantity.key == f"{quantity.name}_{quantity.degree_unit.replace('/', '_').replace('^', '')}"
+    assert [q.name for q in LIMITED] == ["velocity", "acceleration", "jerk"]
+    write_trajectory_csv(tmp_path / "t.csv", trajectory, 10.0, ["a", "b", "c", "d", "e", "f"])
+    header = (tmp_path / "t.csv").read_text().splitlines()[0].split(",")
+    assert header[1::6] == [f"{q.column}_a_{q.key_unit}" for q in PROFILE_QUANTITIES]  # joint a of each block
