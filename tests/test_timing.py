@@ -143,6 +143,20 @@ def test_bad_optimizer_requests(paper_problem):
         optimize(paper_problem, "cuckoo-paper")
     with pytest.raises(InputError, match="nests >= 2"):
         optimize(paper_problem, "cuckoo", nests=1)
+    for algorithm in ("default", "cuckoo-paper"):  # they pass their settings on to Cuckoo Search
+        with pytest.raises(InputError, match=f"bad settings for optimizer '{algorithm}'"):
+            optimize(paper_problem, algorithm, particles=3)
+
+
+def test_a_type_error_inside_an_optimizer_is_not_blamed_on_the_settings(paper_problem, monkeypatch):
+    import planner.timing as timing
+
+    def broken(problem, *, iterations: int = 5):
+        raise TypeError("a bug inside the optimizer")
+
+    monkeypatch.setitem(timing.OPTIMIZERS, "pso", broken)
+    with pytest.raises(TypeError, match="a bug inside"):
+        optimize(paper_problem, "pso", iterations=3)
 
 
 def test_wrong_joint_count_in_limits():

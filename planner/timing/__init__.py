@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import inspect
+
 from ..errors import InputError
 from .baselines import multistart_slsqp, particle_swarm, scipy_differential_evolution
 from .cuckoo import cuckoo_search
@@ -64,11 +66,14 @@ def optimize(problem: TimingProblem, algorithm: str = "default", *, time_limit_s
         optimizer = OPTIMIZERS[algorithm]
     except (KeyError, TypeError):
         raise InputError(f"unknown optimizer {algorithm!r}; known: {', '.join(OPTIMIZERS)}") from None
+    accepts = cuckoo_search if algorithm in ("default", "cuckoo-paper") else optimizer  # they pass settings on
+    try:  # only a setting the optimizer does not take is the caller's mistake; a TypeError inside is a bug
+        inspect.signature(accepts).bind(problem, **settings)
+    except TypeError as exc:
+        raise InputError(f"bad settings for optimizer {algorithm!r}: {exc}") from None
     with time_limit(time_limit_s):
         try:
             return optimizer(problem, **settings)
-        except TypeError as exc:
-            raise InputError(f"bad settings for optimizer {algorithm!r}: {exc}") from None
         except OutOfTime as stop:
             return stop.tracker.result(algorithm, f"time limit of {time_limit_s:g} s reached", settings.get("seed"),
                                        settings)
