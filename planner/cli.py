@@ -99,7 +99,7 @@ def _replay(args) -> int:
         with atomic_file(args.screenshot) as staging:
             render_screenshot(args.recording, staging, at)
     elif not args.check and target is None:
-        open_in_viewer(args.recording)
+        open_in_viewer(args.recording, command=_command())
     return code
 
 

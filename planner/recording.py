@@ -724,15 +724,18 @@ def has_display() -> bool:
     return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
 
-def open_in_viewer(path: Path, *, startup_s: float = VIEWER_STARTUP_S) -> None:
+def open_in_viewer(path: Path, *, startup_s: float = VIEWER_STARTUP_S, command: str = "planner") -> None:
     """Open the recording ``path`` in the Rerun viewer, a process of its own that outlives this one.
+
+    ``command`` is how the planner was invoked, for the commands a failure suggests.
 
     Raises:
         PlannerError: no display to show the viewer on (checked before starting it), the viewer
             cannot be started, or it exits with an error within ``startup_s`` [s].
     """
-    alternatives = (f"check it without a viewer with `planner replay {path} --check`, export its samples with "
-                    "--export-csv PATH, or open it on a machine with a display (or under xvfb-run)")
+    alternatives = (f"check it without a viewer with `{command} replay {path} --check`, render a view with "
+                    f"--screenshot OUT.png, export its samples with --export-csv PATH, or open it on a machine "
+                    f"with a display (or under xvfb-run)")
     if not has_display():
         raise ViewerError(f"no display for the Rerun viewer (neither DISPLAY nor WAYLAND_DISPLAY is set): "
                            f"{alternatives}")

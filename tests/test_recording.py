@@ -390,7 +390,10 @@ def test_replay_without_a_display_fails_before_starting_the_viewer(platform, rec
     assert main(["replay", str(recording)]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: no display") and err.count("\n") == 1
-    assert "--check" in err and "--export-csv" in err and "machine with a display" in err
+    assert "--check" in err and "--export-csv" in err and "--screenshot" in err and "machine with a display" in err
+    monkeypatch.setattr(sys, "argv", [".venv/bin/planner", "replay", str(recording)])  # as the user typed it
+    assert main(["replay", str(recording)]) == 2
+    assert f"`.venv/bin/planner replay {recording} --check`" in capsys.readouterr().err
 
 
 def test_replay_reports_a_viewer_that_fails_at_start_up(recording, monkeypatch, capsys):
