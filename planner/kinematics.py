@@ -19,7 +19,7 @@ from math import comb
 
 import numpy as np
 
-from .limits import QUANTITIES, JointLimits, in_degrees, time_scale_factor
+from .limits import LIMITED, JointLimits, in_degrees, time_scale_factor
 from .read_only import freeze_arrays
 from .splines import PiecewisePolynomial, derivative_coefficients, polyval, powers
 
@@ -326,6 +326,39 @@ def jerk_energy(coefficients: np.ndarray, durations: np.ndarray) -> np.ndarray:
     return (per_segment * durations[..., None]).sum(axis=1)
 
 
+#: The one feasibility tolerance: constraint ratios up to 1 + this, positions up to this [rad]
+#: outside their range, count as holding (rounding in the exact checks, nothing more).
+FEASIBILITY_TOLERANCE = 1e-9
+
+
+@dataclass(frozen=True)
+class Violation:
+    """A limit a trajectory exceeds.
+
+    Attributes:
+        joint: the joint's name; index: its index (0-based).
+        quantity: ``position``, ``velocity``, ``acceleration`` or ``jerk``; order: its derivative order.
+        value: the trajectory's extreme [SI: rad, rad/s, ...] (the largest magnitude, or for
+            ``position`` the lowest or highest position).
+        limit: the limit it exceeds [SI]; side: ``lower`` or ``upper`` for a position, else ``""``.
+    """
+
+    joint: str
+    index: int
+    quantity: str
+    order: int
+    value: float
+    limit: float
+    side: str = ""
+
+    def __str__(self) -> str:
+        if self.order:
+            return (f"joint {self.joint} {self.quantity} {in_degrees(self.value, self.order)} exceeds its limit "
+                    f"{in_degrees(self.limit, self.order)}")
+        where = "below its lower" if self.side == "lower" else "above its upper"
+        return f"joint {self.joint} position {in_degrees(self.value, 0)} is {where} limit {in_degrees(self.limit, 0)}"
+
+
 @dataclass(frozen=True)
 class KinematicFigures:
     """Exact per-joint figures of one trajectory, in SI units.
@@ -352,23 +385,26 @@ class KinematicFigures:
         """(3, J) constraint ratios against ``limits``."""
         return limits.ratios(self.max_abs)
 
-    def violations(self, limits: JointLimits, tolerance: float = 1e-9) -> list[str]:
-        """One line per violated limit (joint name, quantity, value, limit, in degrees); empty when feasible."""
-        lines = []
+    def violations(self, limits: JointLimits) -> list[Violation]:
+        """Every limit the trajectory exceeds, worst ratio first within each kind; empty when feasible.
+
+        The one definition of feasibility (the optimizers' exact check, ``summary.json``,
+        ``replay --check`` use it): every ratio <= 1 + ``FEASIBILITY_TOLERANCE`` and every position
+        within ``FEASIBILITY_TOLERANCE`` [rad] of its range.
+        """
+        found = []
         ratios = self.ratios(limits)
-        for d, quantity in enumerate(QUANTITIES):
-            for j in np.flatnonzero(ratios[d] > 1.0 + tolerance):
-                lines.append(f"joint {limits.names[j]} {quantity} {in_degrees(self.max_abs[d, j], d + 1)} exceeds "
-                             f"its limit {in_degrees(limits.magnitudes[d, j], d + 1)}")
-        slack = tolerance * np.maximum(1.0, np.abs(limits.lower))
-        for j in np.flatnonzero(self.position_min < limits.lower - slack):
-            lines.append(f"joint {limits.names[j]} position {in_degrees(self.position_min[j], 0)} is below its "
-                         f"lower limit {in_degrees(limits.lower[j], 0)}")
-        slack = tolerance * np.maximum(1.0, np.abs(limits.upper))
-        for j in np.flatnonzero(self.position_max > limits.upper + slack):
-            lines.append(f"joint {limits.names[j]} position {in_degrees(self.position_max[j], 0)} is above its "
-                         f"upper limit {in_degrees(limits.upper[j], 0)}")
-        return lines
+        for quantity in LIMITED:
+            d = quantity.order - 1
+            for j in np.flatnonzero(ratios[d] > 1.0 + FEASIBILITY_TOLERANCE):
+                found.append(Violation(limits.names[j], int(j), quantity.name, quantity.order,
+                                       float(self.max_abs[d, j]), float(limits.magnitudes[d, j])))
+        for side, values, bounds, outside in (("lower", self.position_min, limits.lower, -1.0),
+                                              ("upper", self.position_max, limits.upper, 1.0)):
+            for j in np.flatnonzero(outside * (values - bounds) > FEASIBILITY_TOLERANCE):
+                found.append(Violation(limits.names[j], int(j), "position", 0, float(values[j]), float(bounds[j]),
+                                       side))
+        return found
 
 
 def kinematic_figures(trajectory: PiecewisePolynomial) -> KinematicFigures:

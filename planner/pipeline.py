@@ -307,9 +307,12 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         progress.note(f"{progress.label}: total time {result.total_time:.6g} s, "
                       f"{'feasible' if result.feasible else 'INFEASIBLE'} ({result.wall_time_s:.2f} s)")
         if not result.feasible:
-            worst = kinematic_figures(problem.trajectory(result.durations)).violations(limits)
+            found = kinematic_figures(problem.trajectory(result.durations)).violations(limits)
+            worst = max(found, key=lambda v: abs(v.value) / abs(v.limit) if v.order else 0.0, default=None)
             raise InfeasibleError(f"no feasible timing found by {result.algorithm}: largest constraint ratio "
-                                  f"{result.max_ratio:.6g} (limit 1)" + (f"; {worst[0]}" if worst else ""))
+                                  f"{result.max_ratio:.6g} (limit 1)" + (f"; {worst}" if worst else ""),
+                                  **({"joint": worst.index, "quantity": worst.quantity, "value": worst.value,
+                                      "limit": worst.limit} if worst is not None else {}))
         return problem.trajectory(result.durations), (problem, result)
 
     def timed_or_none(points: np.ndarray, rule: str):

@@ -487,7 +487,7 @@ class RecordedPlan:
         # A sample may sit up to one time quantum off its time: allow the position change over it.
         tolerance = _TIME_QUANTUM_NS * 1e-9 * float(figures.max_abs[0].max()) + 1e-12
         ratio = float(np.nan_to_num(figures.ratios(self.limits)).max())
-        return RecordingCheck(figures.violations(self.limits), ratio, deviation, tolerance)
+        return RecordingCheck([str(v) for v in figures.violations(self.limits)], ratio, deviation, tolerance)
 
 
 def read_recording(path) -> RecordedPlan:

@@ -123,7 +123,12 @@ def test_violations_name_joint_quantity_value_and_limit_in_degrees(paper_via):
     limits = JointLimits.create(6, velocity=np.full(6, 0.1), lower=np.full(6, -1.0), upper=np.full(6, 3.0),
                                 names=names)
     trajectory = get_family("hybrid").build(paper_via, np.full(9, 3.0))
-    lines = kinematic_figures(trajectory).violations(limits)
+    found = kinematic_figures(trajectory).violations(limits)
+    lines = [str(violation) for violation in found]
+    for violation in found:  # the structured fields say what the line says
+        assert violation.joint == names[violation.index] and violation.joint in str(violation)
+        assert (abs(violation.value) > violation.limit) if violation.order else \
+            (violation.value < violation.limit if violation.side == "lower" else violation.value > violation.limit)
     dense = np.linspace(0.0, trajectory.total_time, 200_001)  # an independent, sampled maximum
     fastest = np.rad2deg(np.abs(trajectory.evaluate(dense, 1)).max(axis=0))
     lowest = np.rad2deg(trajectory.evaluate(dense).min(axis=0))

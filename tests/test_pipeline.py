@@ -272,3 +272,25 @@ def test_summary_feasible_is_the_exact_check_of_the_planned_limits():
         values[j] = figures.max_abs[order, j] * 0.999
         tighter = replace(result, limits=result.limits.with_overrides(**{quantity: values}))
         assert tighter.summary()["feasible"] is False
+
+
+def test_an_infeasible_optimum_names_its_worst_violation_in_text_and_attributes(monkeypatch):
+    import dataclasses
+
+    import planner.pipeline as pipeline
+    real = pipeline.optimize
+
+    def too_fast(problem, *args, **kwargs):  # an optimizer that returned a timing 20 times too fast
+        result = real(problem, *args, **kwargs)
+        return dataclasses.replace(result, durations=result.durations / 20, feasible=False,
+                                   ratios=result.ratios * 20 ** np.arange(1, 4)[:, None])
+
+    monkeypatch.setattr(pipeline, "optimize", too_fast)
+    data = yaml.safe_load(PAPER_JOINT.read_text())
+    data.pop("optimizer")
+    with pytest.raises(InfeasibleError, match=r"no feasible timing found by .*; joint joint\d (jerk|acceleration) "
+                                              r".* exceeds its limit") as caught:
+        plan(parse_task(data, name="fast"))
+    error = caught.value
+    assert error.quantity in ("acceleration", "jerk") and 0 <= error.joint < 6 and abs(error.value) > error.limit
+    assert f"joint{error.joint + 1} {error.quantity}" in str(error)

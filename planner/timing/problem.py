@@ -40,7 +40,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import InfeasibleError, InputError
-from ..kinematics import batch_scale_factors, jerk_energy, position_range
+from ..kinematics import FEASIBILITY_TOLERANCE, batch_scale_factors, jerk_energy, position_range
 from ..limits import QUANTITIES, JointLimits, in_degrees, time_scale_factor
 from ..splines import PiecewisePolynomial, SplineFamily, get_family, powers
 from ..validate import finite_array
@@ -48,7 +48,6 @@ from ..validate import finite_array
 OBJECTIVES = ("time", "time-jerk")
 #: Consecutive via-points closer than this in every joint [rad] are one via-point.
 REPEAT_TOLERANCE = 1e-9
-FEASIBILITY_TOLERANCE = 1e-9
 _REPAIR_ROUNDS = 6
 _PENALTY = 1e3
 #: Unbounded problems search shapes in [SHAPE_FLOOR, 1]^S (duration ratios up to 1 / SHAPE_FLOOR).
