@@ -351,6 +351,11 @@ class Violation:
     limit: float
     side: str = ""
 
+    @property
+    def ratio(self) -> float:
+        """|value| / limit for a magnitude limit; 0 for a position (which has no ratio)."""
+        return abs(self.value) / self.limit if self.order else 0.0
+
     def __str__(self) -> str:
         if self.order:
             return (f"joint {self.joint} {self.quantity} {in_degrees(self.value, self.order)} exceeds its limit "
@@ -386,7 +391,8 @@ class KinematicFigures:
         return limits.ratios(self.max_abs)
 
     def violations(self, limits: JointLimits) -> list[Violation]:
-        """Every limit the trajectory exceeds, worst ratio first within each kind; empty when feasible.
+        """Every limit the trajectory exceeds (magnitudes by order, then positions, each by joint);
+        empty when feasible.
 
         The one definition of feasibility (the optimizers' exact check, ``summary.json``,
         ``replay --check`` use it): every ratio <= 1 + ``FEASIBILITY_TOLERANCE`` and every position

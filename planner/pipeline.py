@@ -202,13 +202,13 @@ def robot_limits(robot: Robot, task: Task) -> JointLimits:
                                 f"placeholder: the joint could not move); give {key} in the task", joint=joint,
                                 quantity=LIMITED[0].name, key=key)
     limits = robot.limits.with_overrides(names=tuple(robot.joint_names), **task.limits)
-    for quantity, yaml_key in ((q.name, q.key) for q in LIMITED[1:]):  # a velocity limit is optional
-        missing = np.flatnonzero(~np.isfinite(getattr(limits, quantity)))
+    for quantity in LIMITED[1:]:  # acceleration and jerk; a velocity limit is optional
+        missing = np.flatnonzero(~np.isfinite(getattr(limits, quantity.name)))
         if missing.size:
             joint = limits.names[missing[0]]
-            raise MissingLimitError(f"robot {robot.name!r} has no {quantity} limit for joint {joint}; give "
-                                    f"limits.{yaml_key} in the task", joint=joint, quantity=quantity,
-                                    key=f"limits.{yaml_key}")
+            raise MissingLimitError(f"robot {robot.name!r} has no {quantity.name} limit for joint {joint}; give "
+                                    f"limits.{quantity.key} in the task", joint=joint, quantity=quantity.name,
+                                    key=f"limits.{quantity.key}")
     return limits
 
 
@@ -308,7 +308,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
                       f"{'feasible' if result.feasible else 'INFEASIBLE'} ({result.wall_time_s:.2f} s)")
         if not result.feasible:
             found = kinematic_figures(problem.trajectory(result.durations)).violations(limits)
-            worst = max(found, key=lambda v: abs(v.value) / abs(v.limit) if v.order else 0.0, default=None)
+            worst = max(found, key=lambda violation: violation.ratio, default=None)
             raise InfeasibleError(f"no feasible timing found by {result.algorithm}: largest constraint ratio "
                                   f"{result.max_ratio:.6g} (limit 1)" + (f"; {worst}" if worst else ""),
                                   **({"joint": worst.index, "quantity": worst.quantity, "value": worst.value,

@@ -46,7 +46,7 @@ from .ik import BRANCH_RULES
 from .limits import LIMITED, PROFILE_QUANTITIES
 from .read_only import freeze_arrays
 from .splines import FAMILIES
-from .timing import OPTIMIZERS, cuckoo_search
+from .timing import OPTIMIZERS, settings_signature
 from .timing.problem import OBJECTIVES
 from .yaml_input import key_path, read_yaml
 
@@ -413,8 +413,7 @@ def _path(value, path: str) -> PathOptions:
 
 def _optimizer_parameters(algorithm: str) -> tuple[str, ...]:
     """Names of the keyword settings of ``algorithm``, read from its signature (ranges in ``RANGES``)."""
-    function = cuckoo_search if algorithm in ("default", "cuckoo-paper") else OPTIMIZERS[algorithm]
-    return tuple(p.name for p in inspect.signature(function).parameters.values()
+    return tuple(p.name for p in inspect.signature(settings_signature(algorithm)).parameters.values()
                  if p.kind == p.KEYWORD_ONLY and p.name not in ("seed", "progress", "variant"))
 
 

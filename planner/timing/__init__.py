@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import inspect
+from typing import Callable
 
 from ..errors import InputError
 from .baselines import multistart_slsqp, particle_swarm, scipy_differential_evolution
@@ -53,6 +54,12 @@ OPTIMIZERS = {
 }
 
 
+def settings_signature(algorithm: str) -> Callable:
+    """The function whose keyword parameters are ``algorithm``'s settings (``default`` and
+    ``cuckoo-paper`` pass theirs on to Cuckoo Search)."""
+    return cuckoo_search if algorithm in ("default", "cuckoo-paper") else OPTIMIZERS[algorithm]
+
+
 def optimize(problem: TimingProblem, algorithm: str = "default", *, time_limit_s: float | None = None,
              **settings) -> OptimizationResult:
     """Run the named optimizer (see ``OPTIMIZERS``) with its settings.
@@ -66,9 +73,8 @@ def optimize(problem: TimingProblem, algorithm: str = "default", *, time_limit_s
         optimizer = OPTIMIZERS[algorithm]
     except (KeyError, TypeError):
         raise InputError(f"unknown optimizer {algorithm!r}; known: {', '.join(OPTIMIZERS)}") from None
-    accepts = cuckoo_search if algorithm in ("default", "cuckoo-paper") else optimizer  # they pass settings on
     try:  # only a setting the optimizer does not take is the caller's mistake; a TypeError inside is a bug
-        inspect.signature(accepts).bind(problem, **settings)
+        inspect.signature(settings_signature(algorithm)).bind(problem, **settings)
     except TypeError as exc:
         raise InputError(f"bad settings for optimizer {algorithm!r}: {exc}") from None
     with time_limit(time_limit_s):
@@ -80,4 +86,5 @@ def optimize(problem: TimingProblem, algorithm: str = "default", *, time_limit_s
 
 
 __all__ = ["OPTIMIZERS", "Evaluation", "OptimizationResult", "StartReport", "TimingProblem", "cuckoo_search",
-           "multistart_slsqp", "optimize", "particle_swarm", "scipy_differential_evolution", "shape_starts"]
+           "multistart_slsqp", "optimize", "particle_swarm", "scipy_differential_evolution", "settings_signature",
+           "shape_starts"]
