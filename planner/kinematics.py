@@ -19,7 +19,7 @@ from math import comb
 
 import numpy as np
 
-from .limits import LIMITED, JointLimits, in_degrees, time_scale_factor
+from .limits import FEASIBILITY_TOLERANCE, LIMITED, JointLimits, in_degrees, time_scale_factor
 from .read_only import freeze_arrays
 from .splines import PiecewisePolynomial, derivative_coefficients, polyval, powers
 
@@ -324,11 +324,6 @@ def jerk_energy(coefficients: np.ndarray, durations: np.ndarray) -> np.ndarray:
     hilbert = 1.0 / (np.arange(size)[:, None] + np.arange(size)[None, :] + 1.0)
     per_segment = np.einsum("bsji,ik,bsjk->bsj", jerk, hilbert, jerk)
     return (per_segment * durations[..., None]).sum(axis=1)
-
-
-#: The one feasibility tolerance: constraint ratios up to 1 + this, positions up to this [rad]
-#: outside their range, count as holding (rounding in the exact checks, nothing more).
-FEASIBILITY_TOLERANCE = 1e-9
 
 
 @dataclass(frozen=True)

@@ -53,10 +53,26 @@ UNITS = tuple(q.unit for q in PROFILE_QUANTITIES)
 #: Units of position and of the derivative orders 1..3 in messages and reports (task files use degrees).
 DEGREE_UNITS = tuple(q.degree_unit for q in PROFILE_QUANTITIES)
 
+#: The one feasibility tolerance: constraint ratios up to 1 + this, positions up to this [rad]
+#: outside their range, count as holding (rounding in the exact checks and in unit conversions,
+#: such as a via-point written as -160 deg against a URDF bound of -2.792526803 rad).
+FEASIBILITY_TOLERANCE = 1e-9
+
 
 def in_degrees(value: float, order: int) -> str:
     """A value [rad-based SI] of derivative ``order`` (0 = position) as the user reads it: "12.5 deg/s"."""
     return f"{float(np.rad2deg(value)):.6g} {DEGREE_UNITS[order]}"
+
+
+def in_degrees_apart(value: float, bound: float, order: int) -> tuple[str, str]:
+    """``value`` and the ``bound`` it passes, as ``in_degrees`` but with as many significant digits
+    (6 to 17) as it takes for the two to read differently (-160.000001 deg against -160 deg)."""
+    degrees = float(np.rad2deg(value)), float(np.rad2deg(bound))
+    for digits in range(6, 18):
+        said = [f"{d:.{digits}g}" for d in degrees]
+        if said[0] != said[1]:
+            break
+    return tuple(f"{text} {DEGREE_UNITS[order]}" for text in said)
 
 
 def default_joint_names(joints: int) -> tuple[str, ...]:
@@ -141,7 +157,7 @@ class JointLimits:
         return bool(np.isfinite(self.lower).any() or np.isfinite(self.upper).any())
 
     def range_violation(self, positions: np.ndarray) -> tuple[tuple[int, ...], str, float] | None:
-        """The first position outside its joint's range, or None.
+        """The first position outside its joint's range by more than ``FEASIBILITY_TOLERANCE``, or None.
 
         Args:
             positions: (..., J) joint positions [rad].
@@ -150,7 +166,8 @@ class JointLimits:
             (index of the position in ``positions``, "lower" or "upper", the bound [rad] it passes).
         """
         positions = np.asarray(positions, dtype=float)
-        for side, outside in (("lower", positions < self.lower), ("upper", positions > self.upper)):
+        for side, outside in (("lower", positions < self.lower - FEASIBILITY_TOLERANCE),
+                              ("upper", positions > self.upper + FEASIBILITY_TOLERANCE)):
             hits = np.argwhere(outside)
             if hits.size:
                 index = tuple(int(i) for i in hits[0])
@@ -164,6 +181,27 @@ class JointLimits:
             max_abs: (..., 3, J) maxima of |velocity|, |acceleration|, |jerk| [SI].
         """
         return max_abs / self.magnitudes
+
+    def bound_sides(self, positions: np.ndarray) -> np.ndarray:
+        """(..., J) +1 / -1 where a position [rad] is on its joint's upper / lower bound (within
+        ``FEASIBILITY_TOLERANCE``), else 0."""
+        positions = np.asarray(positions, dtype=float)
+        sides = np.where(np.abs(positions - self.upper) <= FEASIBILITY_TOLERANCE, 1, 0)
+        return np.where(np.abs(positions - self.lower) <= FEASIBILITY_TOLERANCE, -1, sides)
+
+    def covering(self, positions: np.ndarray) -> "JointLimits":
+        """These limits with each position range widened just enough to hold ``positions`` (..., J) [rad].
+
+        For positions that ``range_violation`` accepts, within ``FEASIBILITY_TOLERANCE`` of their
+        range: a via-point written on a bound in other units (degrees against a URDF's radians) then
+        lies exactly on it, as the optimizers assume of a via-point on a bound. Returns ``self``
+        when every position is inside already."""
+        positions = np.asarray(positions, dtype=float).reshape(-1, self.joint_count)
+        lower = np.minimum(self.lower, positions.min(axis=0))
+        upper = np.maximum(self.upper, positions.max(axis=0))
+        if np.array_equal(lower, self.lower) and np.array_equal(upper, self.upper):
+            return self
+        return self.with_overrides(lower=lower, upper=upper)
 
     def with_overrides(self, **values) -> "JointLimits":
         """A copy with the named fields (lower, upper, velocity, acceleration, jerk, names) replaced."""

@@ -17,8 +17,8 @@ from .cartesian_path import StraightPath, follow_straight_lines, tool_deviation
 from .errors import IKError, InfeasibleError, MissingLimitError, PlannerError, TaskError
 from .export import coefficients_document, write_json, write_trajectory_csv
 from .ik import IKSolution, pose_from_position_quaternion, solve_waypoints
-from .kinematics import KinematicFigures, kinematic_figures
-from .limits import LIMITED, QUANTITIES, JointLimits, in_degrees
+from .kinematics import KinematicFigures, Violation, kinematic_figures
+from .limits import LIMITED, QUANTITIES, JointLimits, in_degrees_apart
 from .outputs import output_folder
 from .progress import TerminalProgress
 from .recording import write_recording
@@ -239,8 +239,22 @@ def _check_configuration(q: np.ndarray | None, key: str, robot: Robot) -> None:
     violation = robot.limits.range_violation(q)
     if violation is not None:
         (j,), side, bound = violation
-        raise TaskError(f"{key}[{j}]", f"{in_degrees(q[j], 0)} is outside the range of joint "
-                                        f"{robot.limits.names[j]} ({side} limit {in_degrees(bound, 0)})")
+        value, limit = in_degrees_apart(q[j], bound, 0)
+        raise TaskError(f"{key}[{j}]", f"{value} is outside the range of joint {robot.limits.names[j]} "
+                                        f"({side} limit {limit})")
+
+
+def _on_bound_hint(problem: TimingProblem, violations: list[Violation]) -> str:
+    """Why a range may be left: via-points on a range bound, where the joint must stop, which the
+    families' continuity conditions fix from the durations (and cannot make 0 at many via-points at
+    once). Empty unless a position violation and such a via-point exist."""
+    sides = problem.limits.bound_sides(problem.given_via_points)[1:-1]
+    if not any(v.quantity == "position" for v in violations) or not sides.any():
+        return ""
+    k, j = np.argwhere(sides)[0]
+    return (f"; {np.count_nonzero(sides)} via-point values sit on a range bound (first: via-point {k + 1}, joint "
+            f"{problem.limits.names[j]}), where the joint must stop, which the {problem.family.name} spline's "
+            f"continuity conditions seldom allow at more than a few: move them inside their ranges")
 
 
 def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
@@ -310,7 +324,8 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
             found = kinematic_figures(problem.trajectory(result.durations)).violations(limits)
             worst = max(found, key=lambda violation: violation.ratio, default=None)
             raise InfeasibleError(f"no feasible timing found by {result.algorithm}: largest constraint ratio "
-                                  f"{result.max_ratio:.6g} (limit 1)" + (f"; {worst}" if worst else ""),
+                                  f"{result.max_ratio:.6g} (limit 1)" + (f"; {worst}" if worst else "")
+                                  + _on_bound_hint(problem, found),
                                   **({"joint": worst.index, "quantity": worst.quantity, "value": worst.value,
                                       "limit": worst.limit} if worst is not None else {}))
         return problem.trajectory(result.durations), (problem, result)

@@ -38,6 +38,15 @@ def via_and_durations(draw, family_name: str, max_points: int = 7, max_joints: i
     return via, durations
 
 
+def clipped_walk(count: int, seed: int):
+    """Via-points (count, 6) [rad] of a random walk (steps within +-40 deg) clipped to the PUMA 560's
+    ranges, and the paper's limits with those ranges: many via-points sit on a range bound."""
+    low, high = np.deg2rad([[-160, -225, -45, -110, -100, -266], [160, 45, 225, 170, 100, 266]])
+    steps = np.random.default_rng(seed).uniform(-40, 40, (count - 1, 6))
+    via = np.clip(np.deg2rad(np.vstack((np.zeros(6), np.cumsum(steps, axis=0)))), low, high)
+    return via, paper.paper_limits().with_overrides(lower=low, upper=high)
+
+
 def dense_extremes(trajectory, per_segment: int = 400):
     """Max |q^(d)| (3, J) and position min, max (J,) from samples in every segment: independent of the
     exact root-finding the planner uses."""

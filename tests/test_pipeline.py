@@ -5,6 +5,7 @@ import pinocchio as pin
 import pytest
 import yaml
 
+from conftest import clipped_walk
 from planner import (
     InfeasibleError,
     MissingLimitError,
@@ -272,6 +273,20 @@ def test_summary_feasible_is_the_exact_check_of_the_planned_limits():
         values[j] = figures.max_abs[order, j] * 0.999
         tighter = replace(result, limits=result.limits.with_overrides(**{quantity: values}))
         assert tighter.summary()["feasible"] is False
+
+
+def test_a_range_left_next_to_via_points_on_its_bounds_says_why():
+    via, limits = clipped_walk(16, 17)
+    on_bound = np.argwhere(limits.bound_sides(via)[1:-1])
+    task = {"version": 1, "name": "clipped", "waypoints": {"joints_deg": np.rad2deg(via).tolist()},
+            "limits": {"velocity_deg_s": np.rad2deg(limits.velocity).tolist(),
+                       "acceleration_deg_s2": np.rad2deg(limits.acceleration).tolist(),
+                       "jerk_deg_s3": np.rad2deg(limits.jerk).tolist(),
+                       "position_deg": np.rad2deg(np.vstack((limits.lower, limits.upper))).T.tolist()}}
+    with pytest.raises(InfeasibleError, match=rf"position .* is (below|above) its (lower|upper) limit .*; "
+                                              rf"{len(on_bound)} via-point values sit on a range bound \(first: "
+                                              rf"via-point {on_bound[0][0] + 1}, joint joint{on_bound[0][1] + 1}\)"):
+        plan(parse_task(task))
 
 
 def test_an_infeasible_optimum_names_its_worst_violation_in_text_and_attributes(monkeypatch):

@@ -3,7 +3,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from conftest import clipped_walk
 from planner import InfeasibleError, InputError, JointLimits, get_family, kinematic_figures, paper
+from planner.limits import FEASIBILITY_TOLERANCE, in_degrees_apart
 from planner.timing import OPTIMIZERS, TimingProblem, cuckoo_search, optimize
 
 
@@ -109,6 +111,54 @@ def test_via_point_outside_range_is_infeasible():
     with pytest.raises(InfeasibleError, match="via-point 2 puts joint joint3 at 200 deg, outside its upper limit "
                                               "190 deg"):
         TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", limits)
+
+
+@pytest.mark.parametrize("rounding", [np.floor, np.ceil])
+def test_via_point_on_a_bound_within_rounding_is_planned_on_it(rounding):
+    """A via-point written as 200 deg against a bound with a URDF's nine decimals (3.490658503 or
+    ..504 rad, just below or above it) is on the bound: accepted, the joint stops there, and the
+    result passes the exact check."""
+    via = np.deg2rad(paper.VIA_POINTS_DEG)
+    upper = rounding(np.deg2rad([180, 180, 200, 180, 180, 180]) * 1e9) / 1e9
+    assert 0 < abs(via[2, 2] - upper[2]) < FEASIBILITY_TOLERANCE
+    limits = paper.paper_limits().with_overrides(upper=upper)
+    problem = TimingProblem(via, "hybrid", limits)
+    assert problem.limits.upper[2] == max(via[2, 2], upper[2])
+    assert np.array_equal(problem.limits.upper[[0, 1, 3, 4, 5]], upper[[0, 1, 3, 4, 5]])
+    result = optimize(problem, seed=0)
+    trajectory = problem.trajectory(result.durations)
+    assert result.feasible and kinematic_figures(trajectory).violations(limits) == []
+    at_rest = trajectory.evaluate(trajectory.via_times[2], order=1)[0, 2]
+    assert abs(at_rest) < 1e-9 and abs(trajectory.evaluate(trajectory.via_times[2])[0, 2] - via[2, 2]) < 1e-12
+
+
+def test_via_point_just_outside_its_range_reads_outside():
+    limits = paper.paper_limits().with_overrides(upper=np.deg2rad([180, 180, 200, 180, 180, 180]) - 1e-6)
+    with pytest.raises(InfeasibleError, match=r"at 200 deg, outside its upper limit 199.9999 deg$"):
+        TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", limits)
+
+
+@pytest.mark.parametrize("value, bound, expected", [
+    (np.deg2rad(200.0), np.deg2rad(200.0) - 1e-6, ("200 deg", "199.9999 deg")),
+    (np.deg2rad(-160.0) - 1e-8, np.deg2rad(-160.0), ("-160.000001 deg", "-160 deg")),
+    (np.deg2rad(12.5), np.deg2rad(10.0), ("12.5 deg", "10 deg")),
+])
+def test_in_degrees_apart_reads_differently(value, bound, expected):
+    said = in_degrees_apart(value, bound, 0)
+    assert said[0] != said[1] and said[0].startswith(expected[0]) and said[1].startswith(expected[1])
+
+
+def test_a_feasible_candidate_is_never_displaced_by_an_infeasible_one():
+    """Joint 2 rests on its upper bound over the last chords: Cuckoo Search meets infeasible candidates
+    whose penalised objective is below the feasible NLP result's, and one NLP start ends infeasible.
+    The result is the best feasible candidate."""
+    via, limits = clipped_walk(8, 9)
+    problem = TimingProblem(via, "hybrid", limits)
+    result = optimize(problem, seed=0)
+    feasible = [s.objective for s in result.starts if s.feasible]
+    assert feasible and len(feasible) < len(result.starts), "the case should mix feasible and infeasible starts"
+    assert result.feasible and result.objective <= min(feasible) * (1 + 1e-12)
+    assert kinematic_figures(problem.trajectory(result.durations)).violations(limits) == []
 
 
 def test_upper_bound_too_small_is_infeasible():

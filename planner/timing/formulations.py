@@ -49,10 +49,6 @@ def _peak(coefficients: np.ndarray) -> float:
 HYBRID_END_JERK = _peak(derivative_coefficients(HYBRID_END, 3))
 
 
-#: A via-point within this of a position bound [rad] is on it (``SplineFormulation.resting_sides``).
-ON_BOUND = 1e-12
-
-
 @dataclass(frozen=True)
 class Scales:
     """Characteristic magnitudes that scale the NLP's variables and constraints to order one.
@@ -140,14 +136,12 @@ class SplineFormulation:
 
     def resting_sides(self) -> np.ndarray:
         """(n, J) +1 / -1 where an interior via-point sits on its joint's upper / lower position bound
-        (within ``ON_BOUND``) and the range is enforced, else 0.
+        (``JointLimits.bound_sides``: within the exact check's tolerance), else 0.
 
         There the joint must stop (a nonzero velocity leaves the range on one side), so its knot
         velocity is fixed at 0: exact, and it keeps the position certificates of the adjacent
         segments non-degenerate (``nlp.touch_certificate``)."""
-        via, limits = self.via_points, self.limits
-        sides = np.where(np.abs(via - limits.upper) <= ON_BOUND, 1, 0)
-        sides = np.where(np.abs(via - limits.lower) <= ON_BOUND, -1, sides)
+        sides = self.limits.bound_sides(self.via_points)
         sides[[0, -1]] = 0
         return sides
 

@@ -40,8 +40,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import InfeasibleError, InputError
-from ..kinematics import FEASIBILITY_TOLERANCE, batch_scale_factors, jerk_energy, position_range
-from ..limits import QUANTITIES, JointLimits, in_degrees, time_scale_factor
+from ..kinematics import batch_scale_factors, jerk_energy, position_range
+from ..limits import FEASIBILITY_TOLERANCE, QUANTITIES, JointLimits, in_degrees, in_degrees_apart, time_scale_factor
 from ..splines import PiecewisePolynomial, SplineFamily, get_family, powers
 from ..validate import finite_array
 
@@ -103,7 +103,6 @@ class TimingProblem:
         given, _ = self.family.check(via_points, np.ones(self.family.segment_count(len(via_points))))
         self.given_via_points = given
         self.via_points, self.via_index = _merge_repeats(given)
-        self.limits = limits
         if limits.joint_count != self.joint_count:
             raise InputError(f"limits are for {limits.joint_count} joints, via-points have {self.joint_count}")
         if objective not in OBJECTIVES:
@@ -125,7 +124,9 @@ class TimingProblem:
         if not np.isfinite(limits.magnitudes).any() and self.bounds is None:
             raise InputError("no velocity, acceleration or jerk limit and no duration bounds: "
                              "the minimum time is unbounded below")
-        self._check_via_points_in_range()
+        self._check_via_points_in_range(limits)
+        #: The limits, each position range widened to hold the via-points within tolerance of it.
+        self.limits = limits.covering(self.via_points)
         if self.bounds is not None:
             self._check_upper_bound_feasible()
 
@@ -145,13 +146,13 @@ class TimingProblem:
             raise InputError(f"bounds must be [h_min, h_max] with 0 < h_min <= h_max, got {list(bounds)}")
         return float(array[0]), float(array[1])
 
-    def _check_via_points_in_range(self) -> None:
-        violation = self.limits.range_violation(self.given_via_points)
+    def _check_via_points_in_range(self, limits: JointLimits) -> None:
+        violation = limits.range_violation(self.given_via_points)
         if violation is not None:
             (k, j), name, bound = violation
+            value, limit = in_degrees_apart(self.given_via_points[k, j], bound, 0)
             raise InfeasibleError(
-                f"via-point {k} puts joint {self.limits.names[j]} at {in_degrees(self.given_via_points[k, j], 0)}, "
-                f"outside its {name} limit {in_degrees(bound, 0)}",
+                f"via-point {k} puts joint {limits.names[j]} at {value}, outside its {name} limit {limit}",
                 joint=j, quantity="position", value=float(self.given_via_points[k, j]), limit=bound)
 
     def _check_upper_bound_feasible(self) -> None:

@@ -136,6 +136,7 @@ class SearchTracker:
         self.evaluations = 0
         self.best_durations: np.ndarray | None = None
         self.best_objective = np.inf
+        self.best_feasible = False
         self.history: list[float] = []
         self.starts: list[StartReport] = []
         self._progress = progress
@@ -155,10 +156,15 @@ class SearchTracker:
             raise OutOfTime(self)
 
     def _offer(self, evaluation: Evaluation) -> None:
-        i = int(np.argmin(evaluation.objective))
-        if evaluation.objective[i] < self.best_objective:
+        """Keep the best candidate, feasible ones first: a penalised objective guides a search, but
+        an infeasible candidate with a small penalty must not displace a feasible one."""
+        feasible = np.asarray(evaluation.feasible, dtype=bool)
+        pool = np.flatnonzero(feasible) if feasible.any() else np.arange(len(feasible))
+        i = int(pool[np.argmin(evaluation.objective[pool])])
+        if (feasible[i], -evaluation.objective[i]) > (self.best_feasible, -self.best_objective):
             self.best_objective = float(evaluation.objective[i])
             self.best_durations = evaluation.durations[i].copy()
+            self.best_feasible = bool(feasible[i])
 
     def end_iteration(self) -> None:
         check_interrupted()
