@@ -73,6 +73,7 @@ from math import factorial
 
 import numpy as np
 
+from ..concurrency import map_forked
 from ..interrupts import check as check_interrupted
 from ..kinematics import max_abs, segment_extrema
 from ..native_output import stderr_captured
@@ -96,6 +97,9 @@ DURATION_FLOOR = 1e-6
 IPOPT_OPTIONS = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False, "ipopt.tol": 1e-10,
                  "ipopt.constr_viol_tol": 1e-10, "ipopt.max_iter": 500, "ipopt.mumps_mem_percent": 50}
 
+#: Problems with at least this many segments solve their starts side by side, one process per core
+#: (``concurrency.map_forked``); below, forking costs more than it saves.
+CONCURRENT_SEGMENTS = 64
 #: IPOPT statuses after which a round's solution is used.
 SOLVED = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 
@@ -488,8 +492,10 @@ def nlp_refine(problem: TimingProblem, starts: dict[str, np.ndarray], tracker: S
     labels = list(starts)
     repaired = tracker.evaluate(np.array([starts[label] for label in labels]))
     nlp = TimingNLP(problem, repaired.durations[int(np.argmin(repaired.objective))])
-    for label, start in zip(labels, repaired.durations):
-        outcome = nlp.solve(start)
+    nlp.blocks  # builds the program without certificates once, before any process forks
+    workers = None if problem.segment_count >= CONCURRENT_SEGMENTS else 1
+    outcomes = map_forked(nlp.solve, list(repaired.durations), workers)
+    for label, outcome in zip(labels, outcomes):
         result = tracker.evaluate(outcome.durations[None])
         tracker.starts.append(StartReport(label, float(result.objective[0]), bool(result.feasible[0]),
                                           outcome.iterations, outcome.rounds, outcome.status,

@@ -1,0 +1,94 @@
+"""Independent work spread over the machine's cores in forked worker processes.
+
+The timing NLP's starts and the outputs' figure hold Python's global interpreter
+lock while they run (CasADi's IPOPT calls, matplotlib), so threads do not run
+them side by side; processes do. A forked child inherits everything already
+built (a CasADi program, a trajectory), so only the items and the results
+cross a pipe, pickled. Where the platform cannot fork, or one core is all
+there is, the work runs in the calling process, in order: same results.
+
+A child's exception is raised again in the parent; an interruption of the
+parent (Ctrl-C, a time limit, an error in its own share) ends the children.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import pickle
+from typing import Callable, Sequence, TypeVar
+
+Item = TypeVar("Item")
+Result = TypeVar("Result")
+
+
+def core_count() -> int:
+    """The cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def _fork_context():
+    """The ``fork`` multiprocessing context, or None where the platform has none (Windows)."""
+    return multiprocessing.get_context("fork") if "fork" in multiprocessing.get_all_start_methods() else None
+
+
+def map_forked(function: Callable[[Item], Result], items: Sequence[Item], workers: int | None = None) -> list[Result]:
+    """``[function(item) for item in items]``, the items dealt round-robin over ``workers`` processes.
+
+    The calling process takes the first share; each other share runs in a forked
+    child. ``workers`` defaults to ``core_count()``; 1, one item, or no ``fork``
+    on this platform runs everything here.
+    """
+    workers = min(workers or core_count(), len(items))
+    context = _fork_context()
+    if workers <= 1 or context is None:
+        return [function(item) for item in items]
+    shares = [list(range(w, len(items), workers)) for w in range(workers)]
+    children = []
+    try:
+        for share in shares[1:]:
+            receive, send = context.Pipe(duplex=False)
+            process = context.Process(target=_serve, args=(function, [items[i] for i in share], send), daemon=True)
+            process.start()
+            send.close()
+            children.append((share, process, receive))
+        results = {i: function(items[i]) for i in shares[0]}
+        for share, process, receive in children:
+            try:
+                failed, payload = receive.recv()
+            except EOFError:
+                process.join()
+                raise RuntimeError(f"a worker process ended without a result (exit code {process.exitcode})") from None
+            process.join()
+            if failed:
+                raise payload
+            results.update(zip(share, payload))
+    finally:
+        for _, process, receive in children:
+            receive.close()
+            if process.is_alive():
+                process.terminate()
+                process.join()
+    return [results[i] for i in range(len(items))]
+
+
+def _serve(function: Callable, items: list, send) -> None:
+    """A child's work: ``(False, results)`` or ``(True, exception)`` down ``send``."""
+    try:
+        message = (False, [function(item) for item in items])
+    except BaseException as exc:  # noqa: BLE001 - every failure, interruptions included, goes to the parent
+        message = (True, exc if _picklable(exc) else RuntimeError(f"{type(exc).__name__}: {exc}"))
+    send.send(message)
+    send.close()
+
+
+def _picklable(exc: BaseException) -> bool:
+    """``exc`` survives the pipe (an exception whose constructor takes other arguments may not)."""
+    try:
+        pickle.loads(pickle.dumps(exc))
+    except Exception:  # noqa: BLE001 - any failure to round-trip means no
+        return False
+    return True

@@ -1,0 +1,79 @@
+import os
+
+import numpy as np
+import pytest
+
+from planner import InfeasibleError
+from planner.concurrency import core_count, map_forked
+
+
+def square_with_pid(x):
+    return x * x, os.getpid()
+
+
+def test_every_item_in_order_and_shared_over_processes():
+    results = map_forked(square_with_pid, list(range(7)), workers=3)
+    assert [value for value, _ in results] == [x * x for x in range(7)]
+    pids = [pid for _, pid in results]
+    assert pids[0::3] == [os.getpid()] * 3  # the caller's share: items 0, 3, 6
+    assert len(set(pids)) == 3 and os.getpid() not in pids[1::3] + pids[2::3]
+
+
+def test_one_worker_or_one_item_runs_here():
+    assert {pid for _, pid in map_forked(square_with_pid, [1, 2, 3], workers=1)} == {os.getpid()}
+    assert map_forked(square_with_pid, [4]) == [(16, os.getpid())]
+    assert map_forked(square_with_pid, []) == []
+    assert core_count() >= 1
+
+
+def fail_on_odd(x):
+    if x % 2:
+        raise InfeasibleError(f"item {x} is odd", joint=x, quantity="velocity", value=2.0, limit=1.0)
+    return x
+
+
+def test_a_childs_error_is_raised_in_the_parent_with_its_fields():
+    with pytest.raises(InfeasibleError, match="item 1 is odd") as caught:
+        map_forked(fail_on_odd, [0, 1], workers=2)
+    assert (caught.value.joint, caught.value.quantity, caught.value.value) == (1, "velocity", 2.0)
+
+
+def die_on_one(x):
+    if x == 1:
+        os._exit(3)
+    return x
+
+
+def test_a_child_that_dies_is_an_error_not_a_hang():
+    with pytest.raises(RuntimeError, match="exit code 3"):
+        map_forked(die_on_one, [0, 1], workers=2)
+
+
+def slow_unless_first(x):
+    if x:
+        import time
+        time.sleep(60)
+    raise KeyError("the parent's own share fails")
+
+
+def test_the_parents_failure_ends_its_children():
+    import multiprocessing
+    with pytest.raises(KeyError):
+        map_forked(slow_unless_first, [0, 1], workers=2)
+    assert multiprocessing.active_children() == []
+
+
+def test_concurrent_nlp_starts_match_serial_ones(monkeypatch):
+    from planner import paper
+    from planner.timing import TimingProblem, nlp, optimize
+
+    via = np.deg2rad(np.cumsum(np.random.default_rng(3).uniform(-40, 40, (70, 6)), axis=0))
+    problem = TimingProblem(via, "cubic", paper.paper_limits())
+    monkeypatch.setattr(nlp, "CONCURRENT_SEGMENTS", 10**9)
+    serial = optimize(problem, "nlp")
+    monkeypatch.setattr(nlp, "CONCURRENT_SEGMENTS", 1)
+    concurrent = optimize(problem, "nlp")
+    assert serial.feasible and len(serial.starts) == 3
+    np.testing.assert_array_equal(serial.durations, concurrent.durations)
+    assert [(s.label, s.objective, s.iterations, s.status) for s in serial.starts] == \
+        [(s.label, s.objective, s.iterations, s.status) for s in concurrent.starts]
