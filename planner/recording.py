@@ -12,7 +12,8 @@ What a recording holds (timeline ``time``, in seconds):
   for Cartesian tasks), and for Cartesian tasks ``scene/straight_segments`` (the straight lines
   between waypoints) and ``scene/inserted_poses`` (poses ``linear`` mode inserted: small blue points,
   unlabelled), in the robot's root frame.
-* ``profiles/{position,velocity,acceleration,jerk}/<joint>``: time series in degrees, each joint
+* ``profiles/{position,velocity,acceleration,jerk}/<joint>``: time series in degrees (at the sample
+  rate, or at ``PROFILE_SAMPLES`` evenly spaced times in all when that is fewer), each joint
   in one colour (``JOINT_COLOURS``, matplotlib's default cycle as in ``profiles.png``) and named as
   the joint in every plot; ``.../limits/<joint>/{upper,lower}``: its limits as thin dashed lines
   (NaN gaps) of the same colour and name, so that the legend lists each joint once and no limit;
@@ -61,6 +62,9 @@ FORMAT = "planner-recording/v2"
 _PROFILES = tuple(q.name for q in PROFILE_QUANTITIES)
 _LIMIT_FIELDS = ("lower", "upper", *QUANTITIES)
 _SAMPLES = "/trajectory/samples"
+#: Most times at which the profile plots are logged (per series): zoomed to a tenth of a 20-minute
+#: plan, still about one value per pixel; ``trajectory/samples`` keeps every sample.
+PROFILE_SAMPLES = 50_000
 _DEFINITION = "/trajectory/definition"
 _END = "/trajectory/end"
 _SUMMARY = "/summary"
@@ -186,6 +190,10 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
     rate_hz = rate_hz or result.task.sample_rate_hz
     times, values = trajectory.sample(rate_hz)
     time_index = [rr.TimeColumn("time", duration=times)]
+    plot_times, plot_values = times, values
+    if len(times) > PROFILE_SAMPLES:  # what a person looks at: the trajectory's own values, at fewer times
+        plot_times, plot_values = trajectory.sample(PROFILE_SAMPLES / trajectory.total_time)
+    plot_index = [rr.TimeColumn("time", duration=plot_times)]
     rec = rr.RecordingStream(APPLICATION_ID, recording_id=f"{result.task.name}-{id(result)}")
     rec.save(str(path))
     rec.send_recording_name(result.task.name)
@@ -206,8 +214,8 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
             colour = joint_colour(j)
             entity = _entity("profiles", profile, name)
             rec.log(entity, rr.SeriesLines(names=name, colors=[colour], widths=1.5), static=True)
-            rec.send_columns(entity, indexes=time_index,
-                             columns=rr.Scalars.columns(scalars=np.rad2deg(values[k, :, j])))
+            rec.send_columns(entity, indexes=plot_index,
+                             columns=rr.Scalars.columns(scalars=np.rad2deg(plot_values[k, :, j])))
             for side, bound in zip(("lower", "upper"), (bounds[k][0][j], bounds[k][1][j])):
                 if np.isfinite(bound):
                     entity = _entity("profiles", profile, "limits", name, side)
@@ -225,8 +233,8 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
     plots = [rrb.TimeSeriesView(origin=f"/profiles/{p}", name=f"{p} [{unit}]",
                                 plot_legend=rrb.PlotLegend(corner="LeftTop", visible=k == 0),
                                 axis_y=rrb.ScalarAxis(
-                                    range=_position_range(values[0], result.limits) if k == 0
-                                    else _symmetric_range(values[k], result.limits.magnitudes[k - 1])))
+                                    range=_position_range(plot_values[0], result.limits) if k == 0
+                                    else _symmetric_range(plot_values[k], result.limits.magnitudes[k - 1])))
              for k, (p, unit) in enumerate(zip(_PROFILES, DEGREE_UNITS))]
     summary = rrb.TextDocumentView(origin=_SUMMARY, name="summary")
     if result.robot is not None:

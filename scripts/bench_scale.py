@@ -19,6 +19,11 @@ exact feasibility check. Then the paper case (8 via-points, hybrid) with and
 without bounds [3, 5] s, and the growth exponent of the wall time from 64 to
 1024 via-points. Timings on a shared machine vary: compare medians.
 
+``--end-to-end`` adds ``planner plan`` on the same via-points as a joint-space
+task file (no robot, the same limits), each run a fresh process: the median wall
+time of the command and of the stages its summary.json records (setup,
+optimization, outputs; the rest is Python's start, imports and publishing).
+
 ``--toppra`` adds TOPP-RA (``pip install .[bench]``) as a peer: the median
 wall time of a velocity- and acceleration-limited time parametrization (its
 automatic grid) of a cubic spline through the same (merged) via-points, and
@@ -26,18 +31,24 @@ its duration. It is not the same problem (no jerk limit, no hybrid ends, a
 path parametrized by a uniform s): a reference for compute time only.
 
     python scripts/bench_scale.py [--sizes 8 16 ... 1024] [--families cubic hybrid]
-                                  [--classes smooth clipped] [--ranges] [--toppra]
+                                  [--classes smooth clipped] [--ranges] [--toppra] [--end-to-end]
                                   [--repeats 3] [--algorithm default]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import statistics
+import subprocess
+import sys
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
+import yaml
 
 from planner import paper
 from planner.timing import TimingProblem, optimize
@@ -104,6 +115,31 @@ def toppra_peer(via: np.ndarray, limits, repeats: int) -> tuple[float, float]:
     return statistics.median(walls), float(trajectory.duration)
 
 
+def plan_end_to_end(via: np.ndarray, limits, family: str, repeats: int) -> tuple[float, dict[str, float]]:
+    """Median wall time [s] of ``planner plan`` on a joint-space task of ``via`` and ``limits``, and the
+    median of each stage in its summary.json ``timings_s``."""
+    limit_keys = {"velocity_deg_s": limits.velocity, "acceleration_deg_s2": limits.acceleration,
+                  "jerk_deg_s3": limits.jerk}
+    document = {"version": 1, "name": f"bench_{len(via)}", "waypoints": {"joints_deg": np.rad2deg(via).tolist()},
+                "limits": {key: np.rad2deg(value).tolist() for key, value in limit_keys.items()},
+                "trajectory": {"family": family}}
+    if np.isfinite(limits.lower).all() and np.isfinite(limits.upper).all():
+        document["limits"]["position_deg"] = np.rad2deg(np.vstack((limits.lower, limits.upper))).T.tolist()
+    walls, stages = [], {}
+    with tempfile.TemporaryDirectory() as folder:
+        task_file = Path(folder) / "task.yaml"
+        task_file.write_text(yaml.safe_dump(document))
+        for run in range(repeats):
+            out = Path(folder) / f"out{run}"
+            start = time.perf_counter()
+            subprocess.run([sys.executable, "-m", "planner.cli", "plan", str(task_file), "--out", str(out), "--quiet"],
+                           check=True)
+            walls.append(time.perf_counter() - start)
+            for stage, seconds in json.loads((out / "summary.json").read_text())["timings_s"].items():
+                stages.setdefault(stage, []).append(seconds)
+    return statistics.median(walls), {stage: statistics.median(values) for stage, values in stages.items()}
+
+
 def run(problem: TimingProblem, algorithm: str, repeats: int):
     """The result of the last of ``repeats`` runs and the median wall time [s]."""
     walls = []
@@ -121,6 +157,7 @@ def main() -> None:
     parser.add_argument("--classes", nargs="+", default=list(CLASSES), choices=CLASSES)
     parser.add_argument("--ranges", action="store_true", help="enforce the PUMA ranges on the clipped class")
     parser.add_argument("--toppra", action="store_true", help="time TOPP-RA on the same via-points (extra [bench])")
+    parser.add_argument("--end-to-end", action="store_true", help="time `planner plan` on the same via-points")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--algorithm", default="default")
     args = parser.parse_args()
@@ -133,9 +170,11 @@ def main() -> None:
         print(f"paper case, hybrid, bounds {bounds}: total {result.total_time:.6f} s, wall {1e3 * wall:.0f} ms, "
               f"feasible {result.feasible}, starts agree {result.starts_agree}")
     peer = " TOPP-RA wall [s] | TOPP-RA duration [s] |" if args.toppra else ""
+    plan = " plan wall [s] | setup / optimization / outputs [s] |" if args.end_to_end else ""
     print("\n| family | class | n | total time [s] | wall [s] | iterations | starts (iterations, status) "
-          f"| agree | feasible |{peer}")
-    print("|---|---|---:|---:|---:|---:|---|---|---|" + ("---:|---:|" if args.toppra else ""))
+          f"| agree | feasible |{peer}{plan}")
+    print("|---|---|---:|---:|---:|---:|---|---|---|" + ("---:|---:|" if args.toppra else "")
+          + ("---:|---|" if args.end_to_end else ""))
     walls: dict[tuple[str, str, int], float] = {}
     for family in args.families:
         for kind in args.classes:
@@ -148,6 +187,10 @@ def main() -> None:
                 if args.toppra:
                     peer_wall, peer_duration = toppra_peer(via, limits, args.repeats)
                     row += f" {peer_wall:.3f} | {peer_duration:.3f} |"
+                if args.end_to_end:
+                    plan_wall, stages = plan_end_to_end(via, limits, family, args.repeats)
+                    split = " / ".join(f"{stages.get(part, 0.0):.2f}" for part in ("setup", "optimization", "outputs"))
+                    row += f" {plan_wall:.2f} | {split} |"
                 print(row, flush=True)
     for (family, kind, n), wall in walls.items():
         if n == 1024 and (family, kind, 64) in walls:

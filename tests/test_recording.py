@@ -612,3 +612,27 @@ def test_derivative_plots_show_their_limits_and_labelled_ticks(limit_deg, top_de
     values = np.deg2rad(np.array([[0.5 * limit_deg, -0.2 * limit_deg]]))
     low, high = _symmetric_range(values, np.deg2rad([limit_deg, limit_deg / 2]))
     assert low == -high and high == pytest.approx(top_deg)
+
+
+def test_long_plans_log_fewer_profile_values_but_every_sample(planned, tmp_path, monkeypatch):
+    """Above ``PROFILE_SAMPLES`` times the plots are logged at fewer, evenly spaced times, with the
+    trajectory's exact values there; ``trajectory/samples`` and the check keep every sample."""
+    import rerun as rr
+    import rerun.chunk as rc
+
+    import planner.recording as recording
+    result, _ = planned
+    monkeypatch.setattr(recording, "PROFILE_SAMPLES", 40)
+    path = tmp_path / "short.rrd"
+    write_recording(result, path)
+    trajectory = result.trajectory
+    entity = rr.new_entity_path(["profiles", "velocity", result.joint_names[1]])
+    batches = [c.to_record_batch() for c in rc.RrdReader(str(path)).stream().filter(content=entity).to_chunks()
+               if not c.is_static]
+    times = np.concatenate([np.asarray(b.column("time").cast(pa.int64()).to_pylist()) for b in batches]) / 1e9
+    values = np.concatenate([[v[0] for v in b.column("Scalars:scalars").to_pylist()] for b in batches])
+    assert 30 <= len(times) <= 41 and times[0] == 0 and abs(times[-1] - trajectory.total_time) < 0.2
+    np.testing.assert_allclose(values, np.rad2deg(trajectory.evaluate(times, 1)[:, 1]), atol=1e-6)
+    recorded = read_recording(path)
+    assert len(recorded.times) == len(trajectory.sample(result.task.sample_rate_hz)[0])
+    assert recorded.check().passed

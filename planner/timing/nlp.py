@@ -97,8 +97,9 @@ DURATION_FLOOR = 1e-6
 IPOPT_OPTIONS = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False, "ipopt.tol": 1e-10,
                  "ipopt.constr_viol_tol": 1e-10, "ipopt.max_iter": 500, "ipopt.mumps_mem_percent": 50}
 
-#: Problems with at least this many segments solve their starts side by side, one process per core
-#: (``concurrency.map_forked``); below, forking costs more than it saves.
+#: Problems with at least this many segments solve their starts side by side, one process per start
+#: (``concurrency.map_forked``; on two cores, three starts take about 1.5 starts' time, where dealing
+#: them over two processes takes two); below, forking costs more than it saves.
 CONCURRENT_SEGMENTS = 64
 #: IPOPT statuses after which a round's solution is used.
 SOLVED = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
@@ -493,7 +494,7 @@ def nlp_refine(problem: TimingProblem, starts: dict[str, np.ndarray], tracker: S
     repaired = tracker.evaluate(np.array([starts[label] for label in labels]))
     nlp = TimingNLP(problem, repaired.durations[int(np.argmin(repaired.objective))])
     nlp.blocks  # builds the program without certificates once, before any process forks
-    workers = None if problem.segment_count >= CONCURRENT_SEGMENTS else 1
+    workers = len(labels) if problem.segment_count >= CONCURRENT_SEGMENTS else 1
     outcomes = map_forked(nlp.solve, list(repaired.durations), workers)
     for label, outcome in zip(labels, outcomes):
         result = tracker.evaluate(outcome.durations[None])
