@@ -48,6 +48,19 @@ class PlannerError(Exception):
     def __init__(self, message: str = ""):
         super().__init__(one_line(message))
 
+    def __reduce__(self):
+        """Pickle as message and fields, whatever the constructor takes (an error raised in a worker
+        process reaches the parent whole: ``concurrency.map_forked``)."""
+        return _restore, (type(self), self.args, self.__dict__)
+
+
+def _restore(kind: type, args: tuple, fields: dict) -> PlannerError:
+    """A ``kind`` error with these ``args`` and attributes, without calling its constructor."""
+    error = kind.__new__(kind)
+    error.args = args
+    error.__dict__.update(fields)
+    return error
+
 
 class InputError(PlannerError, ValueError):
     """Malformed numeric input: NaN or inf, wrong shape, non-positive durations."""

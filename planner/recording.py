@@ -254,21 +254,19 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
 
 @contextmanager
 def _ros_package_path(package_dirs):
-    """``ROS_PACKAGE_PATH`` extended, for the block, so that Rerun's URDF importer resolves the
-    ``package://NAME/...`` meshes of packages in ``package_dirs`` (a folder holding a
-    ``package.xml`` is package NAME, found in its parent folder)."""
-    folders = [str(Path(d).resolve().parent) for d in package_dirs if (Path(d) / "package.xml").is_file()]
+    """``ROS_PACKAGE_PATH`` set, for the block, to ``robot.package_roots(package_dirs)``, so that
+    Rerun's URDF importer resolves ``package://NAME/...`` meshes as the robot's mesh check does."""
+    from .robot import package_roots  # here: replaying a recording needs no Pinocchio
+
     previous = os.environ.get("ROS_PACKAGE_PATH")
-    if folders:
-        os.environ["ROS_PACKAGE_PATH"] = os.pathsep.join(folders + ([previous] if previous else []))
+    os.environ["ROS_PACKAGE_PATH"] = os.pathsep.join(str(root) for root in package_roots(package_dirs))
     try:
         yield
     finally:
-        if folders:
-            if previous is None:
-                os.environ.pop("ROS_PACKAGE_PATH", None)
-            else:
-                os.environ["ROS_PACKAGE_PATH"] = previous
+        if previous is None:
+            os.environ.pop("ROS_PACKAGE_PATH", None)
+        else:
+            os.environ["ROS_PACKAGE_PATH"] = previous
 
 
 def _log_robot(rec, result, times: np.ndarray, positions: np.ndarray):

@@ -181,15 +181,24 @@ class Robot:
                    Path(urdf_path), package_dirs, placeholder)
 
 
+def package_roots(package_dirs) -> list[Path]:
+    """The one rule for ``package://NAME/...``: the folders whose subfolder NAME is package NAME, in
+    order: each of ``package_dirs`` (a folder of packages) and its parent (the folder is itself a
+    package, named as it is), then the ``ROS_PACKAGE_PATH`` entries. The mesh check (``_mesh_file``)
+    searches them, and the recording hands them to Rerun's URDF importer as ``ROS_PACKAGE_PATH``."""
+    given = [Path(d) for d in package_dirs]
+    roots = [folder for d in given for folder in (d, d.resolve().parent)]
+    roots += [Path(d) for d in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if d]
+    return list(dict.fromkeys(roots))
+
+
 def _mesh_file(filename: str, urdf_path: Path, package_dirs) -> Path | None:
     """The file a URDF ``<mesh filename>`` names, resolved as the recording's importer does
-    (``package://NAME/...`` in ``package_dirs`` and ``ROS_PACKAGE_PATH``, ``file://``, or relative
-    to the URDF's folder), or None where it is not found."""
+    (``package://NAME/...`` under ``package_roots``, ``file://``, or relative to the URDF's folder),
+    or None where it is not found."""
     if filename.startswith("package://"):
         package, _, rest = filename.removeprefix("package://").partition("/")
-        roots = [Path(d) for d in package_dirs] + [Path(d) for d in os.environ.get("ROS_PACKAGE_PATH", "").split(
-            os.pathsep) if d]
-        candidates = [root / package / rest for root in roots] + [root / rest for root in roots if root.name == package]
+        candidates = [root / package / rest for root in package_roots(package_dirs)]
         return next((c for c in candidates if os.path.lexists(c)), None)
     path = Path(filename.removeprefix("file://"))
     return path if path.is_absolute() else urdf_path.parent / path

@@ -3,7 +3,7 @@ import os
 import numpy as np
 import pytest
 
-from planner import InfeasibleError
+from planner import InfeasibleError, UnknownRobotError
 from planner.concurrency import core_count, map_forked
 
 
@@ -36,6 +36,18 @@ def test_a_childs_error_is_raised_in_the_parent_with_its_fields():
     with pytest.raises(InfeasibleError, match="item 1 is odd") as caught:
         map_forked(fail_on_odd, [0, 1], workers=2)
     assert (caught.value.joint, caught.value.quantity, caught.value.value) == (1, "velocity", 2.0)
+
+
+def unknown_robot(x):
+    if x == "puma":  # the child's item: the parent's share succeeds
+        raise UnknownRobotError(f"no robot {x!r}", name=x, known=("ur5", "panda"))
+    return x
+
+
+def test_errors_whose_constructors_take_fields_cross_whole():
+    with pytest.raises(UnknownRobotError, match="no robot 'puma'") as caught:
+        map_forked(unknown_robot, ["ok", "puma"], workers=2)
+    assert caught.value.name == "puma" and caught.value.known == ("ur5", "panda")
 
 
 def die_on_one(x):
