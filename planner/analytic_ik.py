@@ -160,7 +160,7 @@ def _spherical_wrist_solver(screws: _Screws) -> Solver | None:
         g = target * screws.home.inverse()
         reached = g.act(wrist)
         solutions = []
-        for q3 in _rotations_to_distance(w[2], screws.r[2], wrist, shoulder, np.linalg.norm(reached - shoulder)):
+        for q3 in _rotations_to_distance(w[2], screws.r[2], wrist, shoulder, float(np.linalg.norm(reached - shoulder))):
             elbow = screws.motion(2, q3).act(wrist)
             for q1, q2 in _two_rotations(w[0], w[1], elbow - shoulder, reached - shoulder):
                 h = (screws.motion(0, q1) * screws.motion(1, q2) * screws.motion(2, q3)).inverse() * g
@@ -215,7 +215,7 @@ def _parallel_axes_solver(screws: _Screws) -> Solver | None:
                 elbow_sum = _rotation_angle(u, normal, across @ _rotation(w[5], q6).T @ rotation5.T @ normal)
                 h = screws.motion(0, q1).inverse() * g * screws.motion(5, q6).inverse() * screws.motion(4, q5).inverse()
                 goal = h.act(on_four)
-                for q3 in _rotations_to_distance(w[2], r[2], on_four, r[1], np.linalg.norm(goal - r[1])):
+                for q3 in _rotations_to_distance(w[2], r[2], on_four, r[1], float(np.linalg.norm(goal - r[1]))):
                     q2 = _rotation_angle(w[1], screws.motion(2, q3).act(on_four) - r[1], goal - r[1])
                     # Rot(u, elbow_sum) = Rot(w_2, q2) Rot(w_3, q3) Rot(w_4, q4) with w_j = turns[j] u.
                     q4 = turns[2] * (elbow_sum - turns[0] * q2 - turns[1] * q3)

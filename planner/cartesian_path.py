@@ -211,13 +211,13 @@ def _insert(robot: Robot, poses: list[pin.SE3], segment: int, local: int, fracti
                       f"the straight line however close the poses; no joint motion within the ranges follows it "
                       f"(a singularity or a joint range on the way)", waypoint=segment)
     before, after = configurations[local], configurations[local + 1]
-    best = None
-    for seed in ((before + after) / 2, before, after):
-        solution = solve_pose(robot, target, seed)
-        if best is None or solution.residual < best.residual:
-            best = solution
+    best = solve_pose(robot, target, (before + after) / 2)
+    for seed in (before, after):
         if best.residual <= 1e-9:
             break
+        solution = solve_pose(robot, target, seed)
+        if solution.residual < best.residual:
+            best = solution
     if best.residual > 1e-9:
         raise IKError(f"{where}: the straight line leaves the reachable workspace (best residual "
                       f"{best.position_error:.3g} m, {np.rad2deg(best.orientation_error):.3g} deg)",

@@ -77,6 +77,7 @@ def map_forked(function: Callable[[Item], Result], items: Sequence[Item], worker
 
 def _serve(function: Callable, items: list, send) -> None:
     """A child's work: ``(False, results)`` or ``(True, exception)`` down ``send``."""
+    message: tuple[bool, object]
     try:
         message = (False, [function(item) for item in items])
     except BaseException as exc:  # noqa: BLE001 - every failure, interruptions included, goes to the parent

@@ -56,7 +56,7 @@ class PlannerError(Exception):
 
 def _restore(kind: type, args: tuple, fields: dict) -> PlannerError:
     """A ``kind`` error with these ``args`` and attributes, without calling its constructor."""
-    error = kind.__new__(kind)
+    error: PlannerError = Exception.__new__(kind)
     error.args = args
     error.__dict__.update(fields)
     return error
@@ -83,7 +83,11 @@ class InfeasibleError(PlannerError):
     exit_code = 2
 
     def __init__(self, message: str, *, joint: int | None = None, quantity: str | None = None,
-                 value: float | None = None, limit: float | None = None):
+                 value: float | None = None, limit: float | None = None, violation=None):
+        """The fields come from ``violation`` (a ``kinematics.Violation``: its joint index, quantity,
+        value and limit) when one is given, else from the keywords."""
+        if violation is not None:
+            joint, quantity, value, limit = violation.index, violation.quantity, violation.value, violation.limit
         self.joint = joint
         self.quantity = quantity
         self.value = value

@@ -50,6 +50,7 @@ import logging
 import math
 import weakref
 from dataclasses import dataclass, replace
+from typing import Iterable
 
 import numpy as np
 import pinocchio as pin
@@ -297,6 +298,7 @@ def pose_solutions(robot: Robot, target: pin.SE3, limits: JointLimits, rng: np.r
     """
     solve = closed_form_solver(robot) if closed_form else None
     lower, upper = _finite_ranges(robot)
+    seeds: Iterable[np.ndarray]
     if solve is not None:
         seeds, starts = list(solve(target)), 1
         if not seeds:  # out of reach: a solve from the middle of the ranges gives the residual to report
@@ -322,6 +324,7 @@ def pose_solutions(robot: Robot, target: pin.SE3, limits: JointLimits, rng: np.r
             found.append(solution)
             if len(found) == MAX_SOLUTIONS:
                 break
+    assert best is not None  # at least one seed
     return found, best[1], starts if solve is not None else attempt
 
 
@@ -410,6 +413,7 @@ def _optimal_branches(robot, poses, hints, start, limits, rng, accept) -> list[I
         else:
             found, best, attempts = pose_solutions(robot, target, limits, rng, accept=accept)
         if not found:
+            assert best is not None  # at least one attempt
             raise IKError(f"waypoint {index}: pose not reached within the joint ranges after {attempts} "
                           f"attempt{'s' * (attempts > 1)}; best residual {best.position_error:.3g} m, "
                           f"{np.rad2deg(best.orientation_error):.3g} deg", waypoint=index, residual=best.residual)
@@ -447,7 +451,9 @@ def _continuous_branch(robot, poses, hints, start, limits, rng, restarts, accept
     solutions = []
     for index, (target, hint) in enumerate(zip(poses, hints)):
         trial = np.asarray(hint, dtype=float) if hint is not None else previous
-        found, best, attempts = [], None, 0
+        found: list[IKSolution] = []
+        best: IKSolution | None = None
+        attempts = 0
         # A seeded solve that succeeds is kept; after a failure, restarts gather up to
         # _ALTERNATIVES solutions so the nearest can be chosen.
         while attempts == 0 or (len(found) < _ALTERNATIVES and attempts <= restarts):
@@ -466,6 +472,7 @@ def _continuous_branch(robot, poses, hints, start, limits, rng, restarts, accept
                 if attempts == 1:
                     break
         if not found:
+            assert best is not None  # at least one attempt
             raise IKError(f"waypoint {index}: pose not reached within the joint ranges after {attempts} attempts; "
                           f"best residual {best.position_error:.3g} m, {np.rad2deg(best.orientation_error):.3g} deg",
                           waypoint=index, residual=best.residual)

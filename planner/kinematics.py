@@ -144,7 +144,7 @@ def column_roots(p: np.ndarray) -> np.ndarray:
     top = np.where(has_any, width - 1 - np.argmax(nonzero[:, ::-1], axis=1), 0)
     low = np.where(has_any, np.argmax(nonzero, axis=1), 0)
     side = np.zeros(columns, dtype=int)
-    reflected = None
+    reflected: np.ndarray | None = None
     deep = np.flatnonzero(top - low > 3)
     if deep.size:
         reflected = p[:, deep] @ _binomial_reflection(width)
@@ -156,12 +156,12 @@ def column_roots(p: np.ndarray) -> np.ndarray:
         low[deep[better]] = zeros_at_one[better]
     degree = top - low
     result = np.full((batch, columns, joints, max(int(degree.max(initial=0)), 0)), np.nan)
-    groups = {"linear": [], "cubic": [], "eigen": []}
+    groups: dict[str, list] = {"linear": [], "cubic": [], "eigen": []}
     for s, lo, hi in sorted(set(zip(side.tolist(), low.tolist(), top.tolist()))):
         if hi - lo < 1:
             continue
         cols = np.flatnonzero((side == s) & (low == lo) & (top == hi))
-        source = reflected[:, np.searchsorted(deep, cols)] if s else p[:, cols]
+        source = reflected[:, np.searchsorted(deep, cols)] if s and reflected is not None else p[:, cols]
         kind = "linear" if hi - lo == 1 else "cubic" if hi - lo <= 3 else "eigen"
         groups[kind].append((cols, s, source[..., lo:hi + 1]))
 

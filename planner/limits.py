@@ -72,7 +72,7 @@ def in_degrees_apart(value: float, bound: float, order: int) -> tuple[str, str]:
         said = [f"{d:.{digits}g}" for d in degrees]
         if said[0] != said[1]:
             break
-    return tuple(f"{text} {DEGREE_UNITS[order]}" for text in said)
+    return f"{said[0]} {DEGREE_UNITS[order]}", f"{said[1]} {DEGREE_UNITS[order]}"
 
 
 def default_joint_names(joints: int) -> tuple[str, ...]:

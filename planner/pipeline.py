@@ -11,6 +11,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, field, replace
 from functools import partial
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -48,7 +49,8 @@ class PlanResult:
         timings_s: wall time of each stage [s].
         robot: the robot, for robot tasks.
         ik: one IK solution per Cartesian waypoint (residuals, branches, joint-space jumps).
-        branch_times: total time [s] of each branch rule's sequence, when both were timed.
+        branch_times: total time [s] of each branch rule's sequence, when both were timed (None: that
+            rule's sequence could not be timed).
         branch_kept: the rule (``optimal`` or ``continuous``) whose IK sequence was planned.
         path: for Cartesian tasks, how the tool follows the straight segments between
             waypoints (``linear`` mode) or strays from them (``joint`` mode).
@@ -64,7 +66,7 @@ class PlanResult:
     robot: Robot | None = None
     ik: list[IKSolution] | None = None
     path: StraightPath | None = None
-    branch_times: dict[str, float] = field(default_factory=dict)
+    branch_times: dict[str, float | None] = field(default_factory=dict)
     branch_kept: str | None = None
 
     @property
@@ -119,7 +121,7 @@ class PlanResult:
     def _robot_summary(self) -> dict:
         if self.robot is None:
             return {}
-        summary = {"robot": {"name": self.robot.name, "urdf": str(self.robot.urdf_path),
+        summary: dict[str, Any] = {"robot": {"name": self.robot.name, "urdf": str(self.robot.urdf_path),
                              "tool_frame": self.robot.tool_frame}}
         if self.ik is not None:
             summary["ik"] = {"branch": self.task.ik.branch, "sequence_kept": self.branch_kept,
@@ -303,6 +305,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
     start = time.perf_counter()
     poses = None
     if task.cartesian_waypoints is not None:
+        assert robot is not None  # the task schema requires a robot for Cartesian waypoints
         _check_configuration(task.ik.start, "ik.start_deg", robot)
         for index, waypoint in enumerate(task.cartesian_waypoints):
             _check_configuration(waypoint.hint, f"waypoints.cartesian[{index}].hint_deg", robot)
@@ -345,9 +348,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
             worst = max(found, key=lambda violation: violation.ratio, default=None)
             raise InfeasibleError(f"no feasible timing found by {result.algorithm}: largest constraint ratio "
                                   f"{result.max_ratio:.6g} (limit 1)" + (f"; {worst}" if worst else "")
-                                  + _on_bound_hint(problem, found),
-                                  **({"joint": worst.index, "quantity": worst.quantity, "value": worst.value,
-                                      "limit": worst.limit} if worst is not None else {}))
+                                  + _on_bound_hint(problem, found), violation=worst)
         return problem.trajectory(result.durations), (problem, result)
 
     def timed_or_none(points: np.ndarray, rule: str):
@@ -357,7 +358,8 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         except PlannerError:
             return None
 
-    branch_times, timed, kept = {}, None, task.ik.branch if ik is not None else None
+    branch_times: dict[str, float | None] = {}
+    timed, kept = None, task.ik.branch if ik is not None else None
     if alternative is not None:
         other = np.array([solution.q for solution in alternative])
         if not np.allclose(other, via, rtol=0, atol=1e-9):
@@ -365,10 +367,11 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
             branch_times = {name: None if t is None else t[0].total_time
                             for name, t in (("optimal", mine), ("continuous", theirs))}
             timed = mine
-            if theirs is not None and (mine is None or branch_times["continuous"] < branch_times["optimal"]):
+            if theirs is not None and (mine is None or theirs[0].total_time < mine[0].total_time):
                 ik, via, timed, kept = alternative, other, theirs, "continuous"
     path = None
     if poses is not None and task.path.mode == "linear":
+        assert robot is not None
         path, (problem, result) = follow_straight_lines(robot, poses, via, time_via_points, task.path.tolerance_m,
                                                         task.path.tolerance_rad, progress.note)
         via = path.via_points
@@ -376,6 +379,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
     else:
         trajectory, (problem, result) = timed or time_via_points(via)  # the comparison's timing is reused
         if poses is not None:
+            assert robot is not None
             waypoints = np.arange(len(poses))
             *_, distance, angle = tool_deviation(robot, trajectory, poses, waypoints)
             path = StraightPath(via, waypoints, np.zeros(len(poses) - 1, dtype=int), distance, angle, 1)

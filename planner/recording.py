@@ -49,6 +49,7 @@ import warnings
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypeGuard
 
 import numpy as np
 
@@ -111,7 +112,7 @@ _INSERTED_COLOUR = (90, 160, 255)
 def joint_colour(j: int) -> tuple[int, int, int]:
     """Joint ``j``'s colour as RGB."""
     code = JOINT_COLOURS[j % len(JOINT_COLOURS)]
-    return tuple(int(code[k:k + 2], 16) for k in (1, 3, 5))
+    return int(code[1:3], 16), int(code[3:5], 16), int(code[5:7], 16)
 
 
 def _dashed(value: float, total_time: float) -> tuple[np.ndarray, np.ndarray]:
@@ -288,8 +289,8 @@ def _log_robot(rec, result, times: np.ndarray, positions: np.ndarray):
             continue
         entity = _entity("robot", "joint_transforms", joint.name)
         if joint.name in planned:
-            rec.send_columns(entity, indexes=time_index,
-                             columns=joint.compute_transform_columns(positions[:, planned[joint.name]], clamp=False))
+            angles = positions[:, planned[joint.name]].tolist()
+            rec.send_columns(entity, indexes=time_index, columns=joint.compute_transform_columns(angles, clamp=False))
         else:
             rec.log(entity, joint.compute_transform(0.0, clamp=True), static=True)
     root = rr.CoordinateFrame(tree.root_link().name)
@@ -388,7 +389,7 @@ def _link_visuals(urdf_path) -> dict[str, list[tuple[np.ndarray, float]]]:
                     elif shape.tag == "sphere":
                         size = float(shape.get("radius", 0))
                 if centre.shape == (3,):
-                    visuals.setdefault(link.get("name"), []).append((centre, size))
+                    visuals.setdefault(link.get("name") or "", []).append((centre, size))
     except (OSError, ValueError, ElementTree.ParseError):  # framing is a nicety: link frames alone then
         return {}
     return visuals
@@ -583,11 +584,11 @@ def _seconds(ns) -> str:
     return f"{float(ns) / 1e9!r} s"
 
 
-def _is_number(value) -> bool:
+def _is_number(value) -> TypeGuard[int | float]:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
-def _is_count(value) -> bool:
+def _is_count(value) -> TypeGuard[int]:
     return isinstance(value, int) and not isinstance(value, bool) and value >= 0
 
 
@@ -638,7 +639,7 @@ def _definition(path: Path, text: str) -> tuple[list[str], PiecewisePolynomial, 
     bounds = [_numbers(f"{where}: limits", limits, key, len(names), infinite=True) for key in _LIMIT_FIELDS]
     try:
         return (names, PiecewisePolynomial(durations, coefficients.reshape(shape), np.array(knots, dtype=int)),
-                JointLimits(*bounds, names=tuple(names)))
+                JointLimits(bounds[0], bounds[1], bounds[2], bounds[3], bounds[4], names=tuple(names)))
     except InputError as exc:
         raise RecordingError(f"{where}: {exc}") from None
 

@@ -64,7 +64,7 @@ def _draw_column(axes, column: ProfileColumn, limits: JointLimits, colours: list
     waypoint_via = column.waypoint_via
     is_waypoint[np.arange(len(via_times)) if waypoint_via is None else np.asarray(waypoint_via)] = True
     bounds = [(limits.lower, limits.upper)] + [(-m, m) for m in limits.magnitudes]
-    joint_lines = []
+    joint_lines: list = []
     for k, axis in enumerate(axes):
         lines = []
         for j in range(joints):

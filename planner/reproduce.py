@@ -102,7 +102,7 @@ def write_report(runs: list[Run], folder: Path) -> None:
     rows.insert(0, ["[3, 5] s", "hybrid", "CS, the paper's Table IV", f"{paper.DURATIONS_S.sum():.4f}",
                     f"{paper_figures.ratios(limits).max():.4f}", True, paper_evaluations, "-"])
     lines += ["## Optimizers compared (total time; Table IV's setting first)", "", markdown_table(header, rows), ""]
-    best_of = {}
+    best_of: dict = {}
     for r in runs:
         key = (r.family, r.bounds)
         if r.result.feasible and (key not in best_of or r.result.total_time < best_of[key].result.total_time):

@@ -109,6 +109,7 @@ class Robot:
             raise RobotFileError(f"cannot load URDF {path}: larger than {MAX_URDF_BYTES >> 20} MiB "
                                  f"(a robot description, its meshes apart, is well under 1 MiB)", path=path)
         with stderr_captured() as parser_log:
+            failure: Exception | None
             try:
                 model = pin.buildModelFromUrdf(str(path))
             except Exception as exc:  # the parser raises RuntimeError, ValueError, OSError, ...
@@ -130,6 +131,7 @@ class Robot:
             raise UnknownRobotError(f"unknown robot {shown(name)}; example-robot-data has: {', '.join(sorted(ROBOTS))}",
                                     name=name, known=tuple(sorted(ROBOTS)))
         with stderr_captured() as loader_log:
+            failure: Exception | None
             try:
                 loader = ROBOTS[name]()
                 model = loader.robot.model
@@ -297,4 +299,7 @@ def load_robot(urdf: Path | None = None, name: str | None = None, tool_frame: st
     """A robot from a URDF path or an example-robot-data name."""
     if (urdf is None) == (name is None):
         raise RobotError("give exactly one of a URDF path or a robot name")
-    return Robot.from_urdf(urdf, tool_frame) if urdf is not None else Robot.from_example_robot_data(name, tool_frame)
+    if urdf is not None:
+        return Robot.from_urdf(urdf, tool_frame)
+    assert name is not None
+    return Robot.from_example_robot_data(name, tool_frame)

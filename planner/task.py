@@ -38,6 +38,7 @@ import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -260,7 +261,7 @@ def _text_number_hint(value) -> str:
 def _ranged(value, path: str):
     """``value`` checked against ``RANGES[path]``: a number in its range, or true/false."""
     rule = RANGES[path]
-    if rule is bool:
+    if not isinstance(rule, Range):  # bool
         if not isinstance(value, bool):
             raise TaskError(path, f"must be true or false, got {shown(value)}")
         return value
@@ -424,8 +425,9 @@ def _optimizer(value, path: str) -> dict:
     algorithm = _choice(value.get("algorithm", "default"), f"{path}.algorithm", OPTIMIZERS, "algorithm")
     parameters = _optimizer_parameters(algorithm)
     section = _mapping(value, path, _COMMON_OPTIMIZER_KEYS + parameters)
+    settings: dict[str, Any] = {}
     result = {"algorithm": algorithm, "seed": 0, "bounds": None, "objective": "time", "weights": (1.0, 1.0),
-              "time_limit": TIME_LIMIT_S, "settings": {}}
+              "time_limit": TIME_LIMIT_S, "settings": settings}
     for key, item in section.items():
         where = f"{path}.{key}"
         if key == "algorithm":
@@ -444,8 +446,7 @@ def _optimizer(value, path: str) -> dict:
         elif key == "objective":
             result["objective"] = _choice(item, where, OBJECTIVES, "objective")
         else:
-            result["settings"][key] = _ranged(item, where)
-    settings = result["settings"]
+            settings[key] = _ranged(item, where)
     if "refine_starts" in settings and "nests" in settings and settings["refine_starts"] > settings["nests"]:
         raise TaskError(f"{path}.refine_starts", f"must be at most nests ({settings['nests']}), "
                                                  f"got {settings['refine_starts']}")

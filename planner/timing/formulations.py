@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from math import factorial
+from typing import Any
 
 import numpy as np
 
@@ -105,10 +106,10 @@ class SymbolicSpline:
         blocks: the segments as normalised polynomials.
     """
 
-    states: object
+    states: Any
     lower: np.ndarray
     upper: np.ndarray
-    equalities: object
+    equalities: Any
     constraints: list = field(default_factory=list)
     blocks: list = field(default_factory=list)
 
@@ -218,10 +219,10 @@ class CubicFormulation(SplineFormulation):
         factor = np.ones(segments)
         if hybrid:
             factor[[0, -1]] = HYBRID_END_JERK
-        for j in np.flatnonzero(np.isfinite(jerk)):
+        for j in np.flatnonzero(np.isfinite(jerk)).tolist():
             constraints.append((ca.DM(factor) * (m1[:, j] - m0[:, j]) / (jerk[j] * h), -1.0, 1.0))
         lower, upper = self.limits.lower, self.limits.upper
-        for j in np.flatnonzero(np.isfinite(lower) | np.isfinite(upper)):
+        for j in np.flatnonzero(np.isfinite(lower) | np.isfinite(upper)).tolist():
             constraints.append((ca.vertcat(first[j], last[j]), lower[j], upper[j]))
         cubic = [y[:-1, :], v0 * duration, m0 * duration ** 2 / 2, (m1 - m0) * duration ** 2 / 6]
         all_segments = np.arange(segments)

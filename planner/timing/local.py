@@ -30,7 +30,7 @@ class _Model:
         self.roots = np.array([1.0, 0.5, 1.0 / 3.0])[:, None]
         self.lower = np.isfinite(problem.limits.lower)
         self.upper = np.isfinite(problem.limits.upper)
-        self._key = None
+        self._key: bytes | None = None
 
     def _values(self, h: np.ndarray):
         """Objective (B,) and constraints (B, m) at durations h (B, S)."""

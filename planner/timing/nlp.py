@@ -70,6 +70,7 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass, replace
 from math import factorial
+from typing import Any
 
 import numpy as np
 
@@ -356,7 +357,7 @@ def _place(certificates: list[Certificate], found: Certificate, location: float)
     same = [c for c in certificates if c.place == found.place]
     if found.kind == "cut":
         found = replace(found, centre=location)
-        if any(abs(c.centre - location) <= CUT_SPACING for c in same):
+        if any(c.centre is not None and abs(c.centre - location) <= CUT_SPACING for c in same):
             return False
     elif same:
         return False
@@ -394,12 +395,13 @@ class _Program:
         spline = nlp.formulation.build(h)
         self.spline = spline
         count = spline.equalities.shape[0]
-        rows, lower, upper = [spline.equalities], [np.zeros(count)], [np.zeros(count)]
+        rows: list[Any] = [spline.equalities]
+        lower, upper = [np.zeros(count)], [np.zeros(count)]
         for expression, low, high in spline.constraints:
             rows.append(expression)
             lower.append(np.full(expression.shape[0], low))
             upper.append(np.full(expression.shape[0], high))
-        extra = []
+        extra: list[Any] = []
         if certificates:
             f = _certified_quantities(ca, certificates, spline.blocks, h)
             for kind, chosen in _kinds(certificates):
@@ -420,24 +422,24 @@ class _Program:
                 rows += certified
                 lower += [np.zeros(len(chosen))] * len(certified)
                 upper += [np.full(len(chosen), np.inf)] * len(certified)
-        extra = ca.vertcat(*extra) if extra else ca.MX.zeros(0, 1)
+        certificate_variables = ca.vertcat(*extra) if extra else ca.MX.zeros(0, 1)
         objective = ca.sum1(h)
         if problem.uses_jerk_energy:
             k_t, k_j = problem.weights
             objective = objective + (k_j / k_t) * _jerk_energy(ca, spline.blocks, h)
         h_high = problem.bounds[1] / scales.time if problem.bounds is not None else np.inf
         h_low = max(problem.duration_floor / scales.time, 0.0 if problem.bounds is not None else DURATION_FLOOR)
-        size = extra.shape[0]
+        size = certificate_variables.shape[0]
         with np.errstate(divide="ignore"):
             log_low, log_high = np.log(h_low), np.log(h_high)  # -inf, +inf where absent
         self.lbx = np.concatenate((np.full(segments, log_low), spline.lower, np.zeros(size)))
         self.ubx = np.concatenate((np.full(segments, log_high), spline.upper, np.full(size, np.inf)))
         self.lbg, self.ubg = np.concatenate(lower), np.concatenate(upper)
-        variables = ca.vertcat(eta, spline.states, extra)
+        variables = ca.vertcat(eta, spline.states, certificate_variables)
         remaining = remaining_time()  # IPOPT stops by itself at the time limit
         # With certificates the expression graph is deep (quintic: ~10x fewer seconds once expanded to
         # scalar form); without, expanding only costs time (hybrid, n = 1024: 2.2 s -> 3.5 s).
-        options = {**IPOPT_OPTIONS, "expand": bool(certificates)}
+        options: dict[str, Any] = {**IPOPT_OPTIONS, "expand": bool(certificates)}
         if remaining is not None:
             options["ipopt.max_wall_time"] = max(remaining, 1e-3)
         self.solver = ca.nlpsol("timing", "ipopt", {"x": variables, "f": objective / scales.time,

@@ -40,7 +40,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import InfeasibleError, InputError
-from ..kinematics import batch_scale_factors, jerk_energy, position_range
+from ..kinematics import Violation, batch_scale_factors, jerk_energy, position_range
 from ..limits import FEASIBILITY_TOLERANCE, QUANTITIES, JointLimits, in_degrees, in_degrees_apart, time_scale_factor
 from ..splines import PiecewisePolynomial, SplineFamily, get_family, powers
 from ..validate import finite_array
@@ -149,22 +149,24 @@ class TimingProblem:
     def _check_via_points_in_range(self, limits: JointLimits) -> None:
         violation = limits.range_violation(self.given_via_points)
         if violation is not None:
-            (k, j), name, bound = violation
-            value, limit = in_degrees_apart(self.given_via_points[k, j], bound, 0)
-            raise InfeasibleError(
-                f"via-point {k} puts joint {limits.names[j]} at {value}, outside its {name} limit {limit}",
-                joint=j, quantity="position", value=float(self.given_via_points[k, j]), limit=bound)
+            (k, j), side, bound = violation
+            outside = Violation(limits.names[j], j, "position", 0, float(self.given_via_points[k, j]), bound, side)
+            value, limit = in_degrees_apart(outside.value, bound, 0)
+            raise InfeasibleError(f"via-point {k} puts joint {outside.joint} at {value}, outside its {side} limit "
+                                  f"{limit}", violation=outside)
 
     def _check_upper_bound_feasible(self) -> None:
+        assert self.bounds is not None
         _, ratios, _ = self._figures(np.full((1, self.segment_count), self.bounds[1]))
         ratios = ratios[0]
         if ratios.max() > 1.0 + FEASIBILITY_TOLERANCE:
-            d, j = np.unravel_index(np.argmax(ratios), ratios.shape)
-            value, limit = ratios[d, j] * self.limits.magnitudes[d, j], self.limits.magnitudes[d, j]
+            d, j = (int(i) for i in np.unravel_index(np.argmax(ratios), ratios.shape))
+            limit = float(self.limits.magnitudes[d, j])
+            excess = Violation(self.limits.names[j], j, QUANTITIES[d], d + 1, float(ratios[d, j]) * limit, limit)
             raise InfeasibleError(
-                f"infeasible even with every duration at h_max = {self.bounds[1]:g} s: joint {self.limits.names[j]} "
-                f"{QUANTITIES[d]} reaches {in_degrees(value, d + 1)}, limit {in_degrees(limit, d + 1)}",
-                joint=int(j), quantity=QUANTITIES[d], value=float(value), limit=float(limit))
+                f"infeasible even with every duration at h_max = {self.bounds[1]:g} s: joint {excess.joint} "
+                f"{excess.quantity} reaches {in_degrees(excess.value, d + 1)}, limit {in_degrees(limit, d + 1)}",
+                violation=excess)
 
     # ------------------------------------------------------------------ search space
 
