@@ -63,9 +63,12 @@ def test_random_reachable_poses_solve_to_1e_9(puma, name, tool):
 
 
 def test_single_solve_converges_quadratically(puma):
+    """Newton's rate: once the residual is small, each step squares it (r_k+1 <= 10 r_k^2), until rounding."""
     q = np.deg2rad(paper.VIA_POINTS_DEG[2])
-    solution = solve_pose(puma, puma.forward_kinematics(q), q + 0.05)
-    assert solution.residual <= 1e-10 and solution.iterations <= 10
+    residuals = [solve_pose(puma, puma.forward_kinematics(q), q + 0.05, max_iterations=k).residual for k in range(1, 7)]
+    assert residuals[-1] <= 1e-12
+    steps = [(r, following) for r, following in zip(residuals, residuals[1:]) if following > 1e-14]
+    assert len(steps) >= 2 and all(following <= 10 * r ** 2 for r, following in steps), residuals
 
 
 def test_unreachable_pose_names_waypoint_and_residual(puma):

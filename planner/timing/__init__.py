@@ -8,7 +8,7 @@ from typing import Callable
 from ..errors import InputError
 from .baselines import multistart_slsqp, particle_swarm, scipy_differential_evolution
 from .cuckoo import cuckoo_search
-from .nlp import nlp_refine
+from .nlp import nlp_refine, nlp_settings
 from .problem import Evaluation, TimingProblem
 from .result import OptimizationResult, OutOfTime, Progress, SearchTracker, StartReport, time_limit
 from .starts import start_shapes
@@ -21,9 +21,11 @@ def shape_starts(problem: TimingProblem, *, seed: int | None = None,
                  progress: Progress | None = None) -> OptimizationResult:
     """The sparse NLP from the cheap shapes of ``starts.py`` (deterministic; ``seed`` is ignored)."""
     tracker = SearchTracker(problem, progress, 1)
-    nlp_refine(problem, start_shapes(problem), tracker)
+    shapes = start_shapes(problem)
+    nlp_refine(problem, shapes, tracker)
     tracker.end_iteration()
-    return tracker.result("nlp", f"NLP from {len(tracker.starts)} shapes", None, {})
+    return tracker.result("nlp", f"NLP from {len(tracker.starts)} shapes", None,
+                          {"starts": list(shapes), "nlp": nlp_settings(problem, len(shapes))})
 
 
 def _default_planner(problem: TimingProblem, *, seed: int | None = 0, progress: Progress | None = None,

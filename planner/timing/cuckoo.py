@@ -29,7 +29,7 @@ from math import gamma, pi, sin
 import numpy as np
 
 from ..errors import InputError
-from .nlp import nlp_refine
+from .nlp import nlp_refine, nlp_settings
 from .problem import TimingProblem
 from .result import OptimizationResult, Progress, SearchTracker
 
@@ -102,6 +102,8 @@ def cuckoo_search(problem: TimingProblem, *, nests: int = 20, iterations: int = 
         nlp_refine(problem, {f"nest {rank + 1}": x[i] for rank, i in enumerate(best)}, tracker)
     settings = {"nests": nests, "iterations": iterations, "pa": pa, "alpha": alpha, "beta": beta,
                 "variant": variant, "polish": polish, "refine_starts": refine_starts}
+    if polish:
+        settings["nlp"] = nlp_settings(problem, refine_starts)
     name = "cuckoo" if repair else "cuckoo-paper"
     return tracker.result(name, f"completed {iterations} iterations" + (" and NLP refinement" if polish else ""),
                           seed, settings)

@@ -484,6 +484,14 @@ def _jerk_energy(ca, blocks: list[SegmentBlock], h):
     return total
 
 
+def nlp_settings(problem: TimingProblem, starts: int) -> dict:
+    """The NLP's own settings for ``problem`` solved from ``starts`` starts, as ``summary.json`` records them."""
+    return {"ipopt": {key.removeprefix("ipopt."): value for key, value in IPOPT_OPTIONS.items()
+                      if key.startswith("ipopt.") and key not in ("ipopt.print_level", "ipopt.sb")},
+            "variables": "log-durations and knot states", "max_rounds": MAX_ROUNDS, "flag_margin": FLAG_MARGIN,
+            "processes": starts if problem.segment_count >= CONCURRENT_SEGMENTS else 1}
+
+
 def nlp_refine(problem: TimingProblem, starts: dict[str, np.ndarray], tracker: SearchTracker) -> None:
     """Solve the sparse NLP from each named start (S,) [s] and offer the repaired results.
 
