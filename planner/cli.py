@@ -150,6 +150,7 @@ def _log_to_stderr(verbosity: int) -> logging.Handler | None:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The ``planner`` argument parser, with its sub-commands."""
     parser = _Parser(prog="planner", description="Time-optimal joint trajectories through via-points.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of unexpected errors")

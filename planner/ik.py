@@ -124,6 +124,7 @@ class IKSolution:
 
     @property
     def residual(self) -> float:
+        """The larger of the position error [m] and the orientation error [rad]."""
         return max(self.position_error, self.orientation_error)
 
 

@@ -145,6 +145,7 @@ class JointLimits:
 
     @property
     def joint_count(self) -> int:
+        """J, the number of joints."""
         return len(self.lower)
 
     @property
@@ -154,6 +155,7 @@ class JointLimits:
 
     @property
     def has_position_range(self) -> bool:
+        """Some joint has a lower or an upper position bound."""
         return bool(np.isfinite(self.lower).any() or np.isfinite(self.upper).any())
 
     def range_violation(self, positions: np.ndarray) -> tuple[tuple[int, ...], str, float] | None:

@@ -30,6 +30,8 @@ class TerminalProgress:
         self._min_interval = min_interval_s
 
     def __call__(self, done: int, total: int, best: float) -> None:
+        """Show ``done`` of ``total`` iterations and the best objective so far on a live terminal, at most
+        once per ``min_interval_s`` (the last iteration always)."""
         if not self.live:
             return
         now = time.monotonic()

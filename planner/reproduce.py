@@ -37,6 +37,8 @@ QUICK_SETTINGS = {"cuckoo": {"iterations": 10}, "nlp": {}, "cuckoo-paper": {"ite
 
 @dataclass(frozen=True)
 class Run:
+    """One optimizer's result for one family and one setting of the duration bounds."""
+
     family: str
     bounds: tuple[float, float] | None
     algorithm: str

@@ -72,10 +72,12 @@ class Robot:
 
     @property
     def joint_names(self) -> list[str]:
+        """The planned joints' names, in configuration order."""
         return [self.model.names[i] for i in range(1, self.model.njoints)]
 
     @property
     def dof(self) -> int:
+        """Degrees of freedom: the number of planned joints."""
         return self.model.nq
 
     @cached_property

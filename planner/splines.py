@@ -58,6 +58,7 @@ class PiecewisePolynomial:
 
     @property
     def segment_count(self) -> int:
+        """S, the number of segments."""
         return self.durations.shape[0]
 
     @property
@@ -69,6 +70,7 @@ class PiecewisePolynomial:
 
     @property
     def joint_count(self) -> int:
+        """J, the number of joints."""
         return self.coefficients.shape[1]
 
     @property
@@ -230,12 +232,15 @@ class CubicFamily(SplineFamily):
     name = "cubic"
 
     def segment_count(self, via_count: int) -> int:
+        """n + 1: the first and last chords have two segments each (a virtual knot between)."""
         return via_count + 1
 
     def via_knots(self, via_count: int) -> np.ndarray:
+        """Knots 0, 2, .., n - 1, n + 1: the virtual knots 1 and n are no via-points."""
         return np.concatenate(([0], np.arange(2, via_count), [via_count + 1]))
 
     def batch_coefficients(self, via_points: np.ndarray, durations: np.ndarray) -> np.ndarray:
+        """The cubic spline's coefficients from its linear system (the class docstring), per batch row."""
         h = durations
         batch, segments = h.shape
         knots = segments + 1
@@ -316,6 +321,7 @@ class HybridFamily(CubicFamily):
     name = "hybrid"
 
     def batch_coefficients(self, via_points: np.ndarray, durations: np.ndarray) -> np.ndarray:
+        """The cubic spline's coefficients with the first and last segments replaced by 7th-order ones."""
         cubic = super().batch_coefficients(via_points, durations)
         batch, segments, joints, _ = cubic.shape
         coefficients = np.zeros((batch, segments, joints, 8))
@@ -355,12 +361,15 @@ class QuinticFamily(SplineFamily):
     name = "quintic"
 
     def segment_count(self, via_count: int) -> int:
+        """n - 1: one segment per chord."""
         return via_count - 1
 
     def via_knots(self, via_count: int) -> np.ndarray:
+        """Every knot is a via-point."""
         return np.arange(via_count)
 
     def batch_coefficients(self, via_points: np.ndarray, durations: np.ndarray) -> np.ndarray:
+        """The quintic spline's coefficients: zero end velocity and acceleration, C4 inside (class docstring)."""
         batch, segments = durations.shape
         joints = via_points.shape[1]
         zero_ends = ([(1, np.zeros(joints)), (2, np.zeros(joints))],) * 2

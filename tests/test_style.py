@@ -1,4 +1,4 @@
-"""The code style pyproject.toml configures ([tool.ruff]: pycodestyle, pyflakes, import order), checked
+"""The code style pyproject.toml configures ([tool.ruff]: pycodestyle, pyflakes, import order, docstrings), checked
 with ruff over the package, the tests and the scripts; the package's type hints, checked with mypy
 ([tool.mypy])."""
 

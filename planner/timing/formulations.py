@@ -91,6 +91,7 @@ class SegmentBlock:
 
     @property
     def degree(self) -> int:
+        """D, the polynomial degree of these segments."""
         return len(self.coefficients) - 1
 
 
@@ -125,6 +126,7 @@ class SplineFormulation:
 
     @property
     def joint_count(self) -> int:
+        """J, the number of joints."""
         return self.via_points.shape[1]
 
     def build(self, h) -> SymbolicSpline:
@@ -192,6 +194,7 @@ class CubicFormulation(SplineFormulation):
     """
 
     def build(self, h) -> SymbolicSpline:
+        """The cubic or hybrid spline for symbolic durations ``h`` (class docstring)."""
         import casadi as ca
 
         via, scales = self.via_points, self.scales
@@ -240,6 +243,7 @@ class CubicFormulation(SplineFormulation):
                               constraints, blocks)
 
     def knot_resting_sides(self) -> np.ndarray:
+        """Knots p_0, virtual, p_1 .. p_{n-2}, virtual, p_{n-1}: the virtual knots never rest."""
         # Knots: p_0, virtual, p_1 .. p_{n-2}, virtual, p_{n-1}.
         sides = self.resting_sides()
         none = np.zeros((1, self.joint_count), dtype=int)
@@ -259,6 +263,7 @@ class CubicFormulation(SplineFormulation):
         return coefficients
 
     def state_values(self, coefficients: np.ndarray, durations: np.ndarray) -> np.ndarray:
+        """Scaled v and M at the n interior knots, joint-major."""
         # Knot k = 1 .. S-1 starts segment k, whose tau = 0 state the hybrid's end segment keeps too.
         interior = coefficients[1:]
         return np.concatenate(((interior[:, :, 1] / self.scales.derivatives[0]).T.ravel(),
@@ -280,6 +285,7 @@ class QuinticFormulation(SplineFormulation):
     """
 
     def build(self, h) -> SymbolicSpline:
+        """The quintic spline for symbolic durations ``h`` (class docstring)."""
         import casadi as ca
 
         via, scales = self.via_points, self.scales
@@ -310,9 +316,11 @@ class QuinticFormulation(SplineFormulation):
                               blocks=[SegmentBlock(np.arange(segments), coefficients, (0, 1, 2, 3))])
 
     def knot_resting_sides(self) -> np.ndarray:
+        """Every knot is a via-point."""
         return self.resting_sides()
 
     def state_values(self, coefficients: np.ndarray, durations: np.ndarray) -> np.ndarray:
+        """Scaled v, a (interior knots), then j, s (every knot), joint-major."""
         # Knot states: each segment's start, and the last segment's end for the final knot.
         end = np.stack([np.polynomial.polynomial.polyval(durations[-1], derivative_coefficients(
             coefficients[-1], d).T) for d in range(5)], axis=-1)  # (J, 5)

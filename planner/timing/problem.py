@@ -134,10 +134,12 @@ class TimingProblem:
 
     @property
     def joint_count(self) -> int:
+        """J, the number of joints."""
         return self.via_points.shape[1]
 
     @property
     def segment_count(self) -> int:
+        """S, the number of segments of the family for the merged via-points."""
         return self.family.segment_count(len(self.via_points))
 
     def _check_bounds(self, bounds) -> tuple[float, float]:

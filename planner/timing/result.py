@@ -83,6 +83,7 @@ class OptimizationResult:
 
     @property
     def max_ratio(self) -> float:
+        """The largest constraint ratio r_{j,d} of the result."""
         return float(self.ratios.max())
 
     @property
@@ -167,6 +168,7 @@ class SearchTracker:
             self.best_feasible = bool(feasible[i])
 
     def end_iteration(self) -> None:
+        """Close one iteration: record the best objective, report progress, check interruption and time."""
         check_interrupted()
         self.history.append(self.best_objective)
         if self._progress is not None:
