@@ -344,12 +344,12 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         progress.note(f"{progress.label}: total time {result.total_time:.6g} s, "
                       f"{'feasible' if result.feasible else 'INFEASIBLE'} ({result.wall_time_s:.2f} s)")
         if not result.feasible:
-            found = kinematic_figures(problem.trajectory(result.durations)).violations(limits)
+            found = kinematic_figures(problem.trajectory(result.durations, result.knot_states)).violations(limits)
             worst = max(found, key=lambda violation: violation.ratio, default=None)
             raise InfeasibleError(f"no feasible timing found by {result.algorithm}: largest constraint ratio "
                                   f"{result.max_ratio:.6g} (limit 1)" + (f"; {worst}" if worst else "")
                                   + _on_bound_hint(problem, found), violation=worst)
-        return problem.trajectory(result.durations), (problem, result)
+        return problem.trajectory(result.durations, result.knot_states), (problem, result)
 
     def timed_or_none(points: np.ndarray, rule: str):
         """``time_via_points`` of one branch rule's IK sequence, or None where it cannot be timed."""
@@ -375,7 +375,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         path, (problem, result) = follow_straight_lines(robot, poses, via, time_via_points, task.path.tolerance_m,
                                                         task.path.tolerance_rad, progress.note)
         via = path.via_points
-        trajectory = problem.trajectory(result.durations)
+        trajectory = problem.trajectory(result.durations, result.knot_states)
     else:
         trajectory, (problem, result) = timed or time_via_points(via)  # the comparison's timing is reused
         if poses is not None:

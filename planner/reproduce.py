@@ -24,7 +24,7 @@ from .kinematics import KinematicFigures, kinematic_figures
 from .limits import QUANTITIES
 from .progress import TerminalProgress
 from .report import ProfileColumn, markdown_table, plot_profile_columns
-from .splines import FAMILIES, get_family
+from .splines import get_family
 from .timing import OptimizationResult, TimingProblem, optimize
 
 OPTIMIZER_LABELS = {"cuckoo": "CS (ours: repair + NLP)", "nlp": "sparse NLP (from cheap shapes)",
@@ -45,7 +45,12 @@ class Run:
     result: OptimizationResult
 
 
-def run_all(*, quick: bool = False, seed: int = 0, families=tuple(FAMILIES),
+#: The families the comparison runs (``hermite7``, whose via-point states only the NLP optimizes,
+#: is not in it yet).
+COMPARED_FAMILIES = ("cubic", "hybrid", "quintic")
+
+
+def run_all(*, quick: bool = False, seed: int = 0, families=COMPARED_FAMILIES,
             progress: TerminalProgress | None = None) -> list[Run]:
     """Every family x bounds x optimizer on the paper case."""
     via = np.deg2rad(paper.VIA_POINTS_DEG)

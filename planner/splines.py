@@ -173,6 +173,9 @@ class SplineFamily:
     """A way to build a piecewise polynomial through n via-points from S durations."""
 
     name: str = ""
+    #: The via-point states (velocity, acceleration, jerk) are free: a timing may choose them
+    #: (``coefficients_from_states``); from durations alone they follow the family's fixed rule.
+    free_states: bool = False
 
     def segment_count(self, via_count: int) -> int:
         """How many durations the family needs for ``via_count`` via-points."""
@@ -185,6 +188,12 @@ class SplineFamily:
     def batch_coefficients(self, via_points: np.ndarray, durations: np.ndarray) -> np.ndarray:
         """(B, S, J, D+1) coefficients for durations (B, S); inputs already validated."""
         raise NotImplementedError
+
+    def coefficients_from_states(self, via_points: np.ndarray, durations: np.ndarray,
+                                 states: np.ndarray) -> np.ndarray:
+        """(B, S, J, D+1) coefficients with the via-point states (B, n, J, 3) given (velocity,
+        acceleration, jerk), for a family whose states are free (``free_states``)."""
+        raise InputError(f"the {self.name} family fixes its via-point states from the durations")
 
     def check(self, via_points, durations) -> tuple[np.ndarray, np.ndarray]:
         """Validate via-points (n, J), n >= 2, and durations (S,) or (B, S) of the right count."""
@@ -382,7 +391,59 @@ class QuinticFamily(SplineFamily):
         return result
 
 
-FAMILIES: dict[str, SplineFamily] = {f.name: f for f in (CubicFamily(), HybridFamily(), QuinticFamily())}
+def parabola_states(via_points: np.ndarray, durations: np.ndarray) -> np.ndarray:
+    """(B, n, J, 3) velocity, acceleration and jerk at each via-point: those of the parabola through
+    it and its two neighbours at their times, and zero jerk (all zero at the first and last).
+
+    With chord slopes s_k = (p_{k+1} - p_k) / h_k, at interior via-point i:
+    v_i = (h_i s_{i-1} + h_{i-1} s_i) / (h_{i-1} + h_i), a_i = 2 (s_i - s_{i-1}) / (h_{i-1} + h_i).
+    Scaling every duration by k divides v by k and a by k^2, as the time-scaling lemma needs.
+    """
+    h = durations[:, :, None]
+    slopes = np.diff(via_points, axis=0)[None] / h
+    before, after = h[:, :-1], h[:, 1:]
+    states = np.zeros((durations.shape[0], via_points.shape[0], via_points.shape[1], 3))
+    states[:, 1:-1, :, 0] = (after * slopes[:, :-1] + before * slopes[:, 1:]) / (before + after)
+    states[:, 1:-1, :, 1] = 2 * (slopes[:, 1:] - slopes[:, :-1]) / (before + after)
+    return states
+
+
+class Hermite7Family(SplineFamily):
+    """One 7th-order Hermite segment per chord (S = n - 1): position, velocity, acceleration and
+    jerk match at both ends of every segment, so the trajectory is C3 (jerk-continuous), with zero
+    velocity, acceleration and jerk at both ends.
+
+    The interior via-point states are free (``free_states``): the sparse NLP optimizes them with the
+    durations. Built from durations alone (the population optimizers, the starts) they follow a
+    fixed rule, ``parabola_states``.
+    """
+
+    name = "hermite7"
+    free_states = True
+
+    def segment_count(self, via_count: int) -> int:
+        """n - 1: one segment per chord."""
+        return via_count - 1
+
+    def via_knots(self, via_count: int) -> np.ndarray:
+        """Every knot is a via-point."""
+        return np.arange(via_count)
+
+    def batch_coefficients(self, via_points: np.ndarray, durations: np.ndarray) -> np.ndarray:
+        """The segments between the fixed-rule states (``parabola_states``)."""
+        return self.coefficients_from_states(via_points, durations, parabola_states(via_points, durations))
+
+    def coefficients_from_states(self, via_points: np.ndarray, durations: np.ndarray,
+                                 states: np.ndarray) -> np.ndarray:
+        """(B, S, J, 8) each segment's ``hermite7`` between the states (B, n, J, 3) (velocity,
+        acceleration, jerk) of its two via-points; the first and last via-point's are used as given."""
+        position = np.broadcast_to(via_points[None, :, :, None], states.shape[:3] + (1,))
+        full = np.concatenate((position, states), axis=-1)  # (B, n, J, 4)
+        return hermite7(full[:, :-1], full[:, 1:], durations[:, :, None])
+
+
+FAMILIES: dict[str, SplineFamily] = {f.name: f for f in (CubicFamily(), HybridFamily(), QuinticFamily(),
+                                                          Hermite7Family())}
 
 
 def get_family(name: str) -> SplineFamily:

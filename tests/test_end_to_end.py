@@ -40,7 +40,7 @@ def joint_tasks(draw) -> dict:
         low = draw(st.floats(0.01, 2.0))
         optimizer["bounds_s"] = [low, low * draw(st.floats(1.0, 50.0))]
     return {"version": 1, "waypoints": {"joints_deg": via.tolist()}, "limits": limits,
-            "trajectory": {"family": draw(st.sampled_from(["hybrid", "quintic", "cubic"])),
+            "trajectory": {"family": draw(st.sampled_from(["hybrid", "quintic", "cubic", "hermite7"])),
                            "min_segment_s": draw(st.sampled_from([1e-3, 0.05]))},
             "optimizer": optimizer}
 

@@ -345,3 +345,62 @@ def test_via_points_on_a_position_bound_stop_there(paper_via, paper_limits, fami
     trajectory = problem.trajectory(result.durations)
     on_bound = np.flatnonzero((paper_via[1:-1, 0] == lower[0]) | (paper_via[1:-1, 0] == upper[0])) + 1
     assert on_bound.size and np.abs(trajectory.evaluate(trajectory.via_times[on_bound], 1)[:, 0]).max() < 1e-12
+
+
+# ------------------------------------------------------------------ hermite7: free via-point states
+
+def test_hermite7_paper_case_reaches_the_independent_optimum(paper_via, paper_limits):
+    """An independent computation of the hermite7 optimum (no bounds, Table III limits) gives 16.4723 s,
+    4.9 % below the hybrid's 17.3128 s. The states are the NLP's, not the fixed rule's."""
+    from conftest import dense_extremes
+    from planner.splines import parabola_states
+
+    problem = TimingProblem(paper_via, "hermite7", paper_limits)
+    result = optimize(problem)
+    assert result.feasible and result.starts_agree
+    assert relative_gap(result.total_time, 16.4723) < 1e-4
+    assert result.knot_states is not None and result.knot_states.shape == (8, 6, 3)
+    trajectory = problem.trajectory(result.durations, result.knot_states)
+    figures = kinematic_figures(trajectory)
+    assert figures.violations(paper_limits) == [] and figures.ratios(paper_limits).max() == pytest.approx(1, abs=1e-9)
+    largest, _, _ = dense_extremes(trajectory)
+    assert np.all(largest <= paper_limits.magnitudes * (1 + 1e-6))
+    for order in range(4):  # C3: both sides of every interior knot agree
+        knots = trajectory.knot_times[1:-1]
+        left, right = trajectory.evaluate(knots - 1e-9, order), trajectory.evaluate(knots + 1e-9, order)
+        assert np.abs(left - right).max() <= 1e-5
+    rule = parabola_states(problem.via_points, result.durations[None])[0]
+    assert np.abs(result.knot_states - rule).max() > 1e-2  # optimized, not the rule's
+
+
+@given(st.floats(0.1, 3.0), st.floats(0.1, 5.0), st.floats(0.1, 5.0), st.floats(0.1, 5.0))
+@settings(max_examples=5)
+def test_single_hermite7_segment_analytic_optimum(distance, velocity, acceleration, jerk):
+    """Two via-points: the rest-to-rest 7th-order polynomial 35 s^4 - 84 s^5 + 70 s^6 - 20 s^7, whose
+    peak derivatives (computed here with numpy) set the shortest duration."""
+    shape = np.polynomial.Polynomial([0, 0, 0, 0, 35, -84, 70, -20])
+    grid = np.linspace(0, 1, 20001)
+    peaks = [np.abs(shape.deriv(d)(grid)).max() for d in (1, 2, 3)]
+    expected = max(distance * peaks[0] / velocity, np.sqrt(distance * peaks[1] / acceleration),
+                   np.cbrt(distance * peaks[2] / jerk))
+    limits = JointLimits.create(1, velocity=[velocity], acceleration=[acceleration], jerk=[jerk])
+    result = optimize(TimingProblem([[0.0], [distance]], "hermite7", limits), "nlp")
+    assert result.feasible and result.total_time == pytest.approx(expected, rel=1e-6)
+
+
+def test_free_states_repair_is_the_time_scaling_lemma(paper_via, paper_limits):
+    """Durations times s and states divided by s, s^2, s^3 give q(t / s): the same path, every limit
+    met and one reached."""
+    problem = TimingProblem(paper_via, "hermite7", paper_limits)
+    rng = np.random.default_rng(5)
+    h, states = rng.uniform(0.5, 3.0, 7), rng.normal(0, 0.2, (8, 6, 3))
+    states[[0, -1]] = 0.0
+    repaired = problem.evaluate_states(h[None], states[None])
+    scale = repaired.durations[0, 0] / h[0]
+    np.testing.assert_allclose(repaired.durations[0], h * scale, rtol=1e-12)
+    np.testing.assert_allclose(repaired.states[0], states / scale ** np.arange(1, 4), rtol=1e-12)
+    before, after = problem.trajectory(h, states), problem.trajectory(repaired.durations[0], repaired.states[0])
+    times = np.linspace(0, before.total_time, 50)
+    np.testing.assert_allclose(after.evaluate(times * scale), before.evaluate(times), atol=1e-9)
+    assert repaired.feasible[0] and repaired.ratios[0].max() <= 1 + 1e-9
+    assert max(repaired.ratios[0, d].max() ** (1 / (d + 1)) for d in range(3)) == pytest.approx(1, abs=1e-9)

@@ -109,11 +109,11 @@ def test_quintic_matches_scipy(case):
         np.testing.assert_allclose(pp.evaluate(times, order), spline(times, nu=order), rtol=1e-7, atol=1e-6)
 
 
-CONTINUITY = {"cubic": 2, "hybrid": 2, "quintic": 4}
-END_ZERO_ORDERS = {"cubic": (1, 2), "hybrid": (1, 2, 3), "quintic": (1, 2)}
+CONTINUITY = {"cubic": 2, "hybrid": 2, "quintic": 4, "hermite7": 3}
+END_ZERO_ORDERS = {"cubic": (1, 2), "hybrid": (1, 2, 3), "quintic": (1, 2), "hermite7": (1, 2, 3)}
 
 
-@pytest.mark.parametrize("name", ["cubic", "hybrid", "quintic"])
+@pytest.mark.parametrize("name", ["cubic", "hybrid", "quintic", "hermite7"])
 @given(data=via_and_durations("cubic"))
 def test_interpolates_continuous_and_rests(name, data):
     via, _ = data
@@ -164,6 +164,35 @@ def test_hermite7_meets_both_end_states():
     for order in range(4):
         assert pp.evaluate([0.0], order)[0, 0] == pytest.approx(start[order], abs=1e-10)
         assert pp.evaluate([h], order)[0, 0] == pytest.approx(end[order], abs=1e-9)
+
+
+@given(via_and_durations("hermite7"))
+def test_hermite7_matches_scipy_with_its_rule_and_with_any_states(case):
+    """Independent construction: scipy's BPoly.from_derivatives through the same positions and states,
+    the fixed rule's (the parabola through each via-point and its neighbours, zero jerk) and random ones."""
+    from scipy.interpolate import BPoly
+    via, h = case
+    family = get_family("hermite7")
+    times = np.concatenate(([0.0], np.cumsum(h)))
+    slopes = np.diff(via, axis=0) / h[:, None]
+    rule = np.zeros(via.shape + (3,))
+    rule[1:-1, :, 0] = (h[1:, None] * slopes[:-1] + h[:-1, None] * slopes[1:]) / (h[:-1] + h[1:])[:, None]
+    rule[1:-1, :, 1] = 2 * (slopes[1:] - slopes[:-1]) / (h[:-1] + h[1:])[:, None]
+    chosen = np.random.default_rng(len(via)).normal(size=rule.shape)
+    samples = np.random.default_rng(1).uniform(0, times[-1], 40)
+    for states, pp in ((rule, family.build(via, h)),
+                       (chosen, PiecewisePolynomial(h, family.coefficients_from_states(via, h[None], chosen[None])[0],
+                                                    family.via_knots(len(via))))):
+        for j in range(via.shape[1]):
+            reference = BPoly.from_derivatives(times, np.column_stack((via[:, j], states[:, j])))
+            for order in range(4):
+                np.testing.assert_allclose(pp.evaluate(samples, order)[:, j], reference(samples, nu=order),
+                                           rtol=1e-7, atol=1e-6 * (1 + 1 / h.min() ** order))
+
+
+def test_families_with_fixed_states_refuse_given_ones(paper_via):
+    with pytest.raises(InputError, match="the hybrid family fixes its via-point states"):
+        get_family("hybrid").coefficients_from_states(paper_via, np.ones((1, 9)), np.zeros((1, 8, 6, 3)))
 
 
 def test_segment_counts_and_via_times(paper_via):

@@ -137,6 +137,12 @@ class SplineFormulation:
         """The scaled knot states of a built spline (coefficients (S, J, D+1), durations (S,))."""
         raise NotImplementedError
 
+    def via_point_states(self, values: np.ndarray) -> np.ndarray | None:
+        """(n, J, 3) velocity, acceleration and jerk at the via-points from the scaled state
+        variables' values, for a family whose states are free (``SplineFamily.free_states``);
+        None where the durations determine them."""
+        return None
+
     def resting_sides(self) -> np.ndarray:
         """(n, J) +1 / -1 where an interior via-point sits on its joint's upper / lower position bound
         (``JointLimits.bound_sides``: within the exact check's tolerance), else 0.
@@ -332,4 +338,61 @@ class QuinticFormulation(SplineFormulation):
         return np.concatenate(values)
 
 
-FORMULATIONS = {"cubic": CubicFormulation, "hybrid": CubicFormulation, "quintic": QuinticFormulation}
+#: (8, 8) the map from a segment's end states, normalised as x = (q, q' h, q'' h^2, q''' h^3) at its start
+#: then at its end, to the coefficients b_0 .. b_7 of its normalised 7th-order Hermite polynomial P(s).
+HERMITE7_MAP = np.stack([hermite7(unit[:4], unit[4:], np.array(1.0)) for unit in np.eye(8)], axis=1)
+
+
+class Hermite7Formulation(SplineFormulation):
+    """``hermite7`` with free via-point states: velocity, acceleration and jerk at the n - 2 interior
+    via-points are variables (zero at both ends); segment k is the Hermite polynomial between the
+    states of via-points k and k + 1 (``HERMITE7_MAP``), so there is no continuity condition to
+    impose (C3 by construction) and the NLP chooses the states with the durations.
+
+    Exact limits: the knot values |v|, |a|, |j| <= limit are variable bounds (v fixed at 0 where a
+    via-point is on its position bound); extremes inside segments (degrees 4 to 7) get cuts.
+    """
+
+    def build(self, h) -> SymbolicSpline:
+        """The Hermite segments for symbolic durations ``h`` and the state variables."""
+        import casadi as ca
+
+        via, scales = self.via_points, self.scales
+        n, joints = via.shape
+        inner = n - 2
+        states = ca.MX.sym("knot_states", 3 * inner * joints)
+        rest = ca.MX.zeros(1, joints)
+        knots = []
+        for order in range(1, 4):
+            block = ca.reshape(states[(order - 1) * inner * joints:order * inner * joints], inner, joints)
+            knots.append(ca.vertcat(rest, block * _per_joint(ca, scales.derivatives[order - 1], inner), rest))
+        duration = ca.repmat(h, 1, joints)
+        powers = [1, duration, duration ** 2, duration ** 3]
+        ends = [_columns(ca, via[:-1])] + [knots[d - 1][:-1, :] * powers[d] for d in range(1, 4)]
+        ends += [_columns(ca, via[1:])] + [knots[d - 1][1:, :] * powers[d] for d in range(1, 4)]
+        coefficients = [sum(HERMITE7_MAP[i, c] * ends[c] for c in range(8) if HERMITE7_MAP[i, c] != 0)
+                        for i in range(8)]
+        bounds = np.concatenate([self._scaled_bounds(order, inner) for order in range(1, 4)])
+        bounds[:inner * joints] = np.where((self.resting_sides()[1:-1] != 0).T.ravel(), 0.0, bounds[:inner * joints])
+        return SymbolicSpline(states, -bounds, bounds, ca.MX(0, 1),
+                              blocks=[SegmentBlock(np.arange(n - 1), coefficients, (0, 1, 2, 3))])
+
+    def knot_resting_sides(self) -> np.ndarray:
+        """Every knot is a via-point."""
+        return self.resting_sides()
+
+    def state_values(self, coefficients: np.ndarray, durations: np.ndarray) -> np.ndarray:
+        """Scaled v, a, j at the interior via-points (each segment's start), joint-major."""
+        interior = coefficients[1:]
+        return np.concatenate([(interior[:, :, order] * factorial(order) / self.scales.derivatives[order - 1]).T.ravel()
+                               for order in range(1, 4)])
+
+    def via_point_states(self, values: np.ndarray) -> np.ndarray:
+        """(n, J, 3) the states the variables hold, unscaled, zero at both ends."""
+        n, joints = self.via_points.shape
+        inner = values.reshape(3, joints, n - 2).transpose(2, 1, 0) * self.scales.derivatives[:3].T[None]
+        return np.concatenate((np.zeros((1, joints, 3)), inner, np.zeros((1, joints, 3))))
+
+
+FORMULATIONS = {"cubic": CubicFormulation, "hybrid": CubicFormulation, "quintic": QuinticFormulation,
+                "hermite7": Hermite7Formulation}

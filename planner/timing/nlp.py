@@ -177,6 +177,8 @@ class NLPOutcome:
         rounds: solves made (one per round).
         status: IPOPT's return status of the last round.
         certificates: certificates in the last round.
+        states: (n, J, 3) the via-point states of the last round, where the family's are free
+            (``SplineFamily.free_states``); None: the family's rule (or no round solved).
     """
 
     durations: np.ndarray
@@ -184,6 +186,7 @@ class NLPOutcome:
     rounds: int
     status: str
     certificates: int
+    states: np.ndarray | None = None
 
 
 class TimingNLP:
@@ -212,9 +215,13 @@ class TimingNLP:
         """Solve from durations ``start`` (S,) [s], adding certificates round by round."""
         problem = self.problem
         h = np.asarray(start, dtype=float)
-        coefficients = problem.family.batch_coefficients(problem.via_points, h[None])[0]
+        states = None
+        coefficients = problem.coefficients(h[None])[0]
         core = np.concatenate((np.log(h / self.scales.time), self.formulation.state_values(coefficients, h)))
         certificates: list[Certificate] = []
+        if problem.family.free_states:  # every limit but the knot values is left to cuts: without cuts from
+            # the start, the first round would shrink every duration towards 0 (and the next start from there)
+            certificates, _ = self._certify([], coefficients, h, everywhere=True)
         iterations, status, rounds = 0, "not solved", 0
         while rounds < MAX_ROUNDS:
             rounds += 1
@@ -237,13 +244,15 @@ class TimingNLP:
                 break  # keep the last solved round (or the start): more rounds would not help
             core = x[:len(core)]
             h = self.scales.time * np.exp(core[:problem.segment_count])
-            coefficients = problem.family.batch_coefficients(problem.via_points, h[None])[0]
-            if problem.evaluate_durations(h[None]).feasible[0]:
+            states = self.formulation.via_point_states(core[problem.segment_count:])
+            batch_states = None if states is None else states[None]
+            coefficients = problem.coefficients(h[None], batch_states)[0]
+            if problem.evaluate_durations(h[None], batch_states).feasible[0]:
                 break
             certificates, changed = self._certify(certificates, coefficients, h)
             if not changed:
                 break
-        return NLPOutcome(h, iterations, rounds, status, len(certificates))
+        return NLPOutcome(h, iterations, rounds, status, len(certificates), states)
 
     # ------------------------------------------------------------------ certificates
 
@@ -262,8 +271,10 @@ class TimingNLP:
         return [d for d in block.certified if block.degree - d >= 2 and limited[d].any()]
 
     def _certify(self, certificates: list[Certificate], coefficients: np.ndarray,
-                 h: np.ndarray) -> tuple[list[Certificate], bool]:
-        """Certify every extreme inside a segment within FLAG_MARGIN of its bound or beyond.
+                 h: np.ndarray, everywhere: bool = False) -> tuple[list[Certificate], bool]:
+        """Certify every extreme inside a segment within FLAG_MARGIN of its bound or beyond; with
+        ``everywhere``, also put a cut at every other extreme of a quantity that only cuts bound
+        (degree 4 and above), on the side it lies (the first round of a family with free states).
 
         Exact certificates are added once; a cut is added unless one within
         ``CUT_SPACING`` covers the extreme. Returns the new list and whether it changed.
@@ -284,7 +295,11 @@ class TimingNLP:
                     low, high = self._bounds(order, joint)
                     span = high - low if np.isfinite(high - low) else 1.0
                     margin = FLAG_MARGIN * (span if order == 0 else high)
-                    for side, near in ((1, f[:, joint] > high - margin), (-1, f[:, joint] < low + margin)):
+                    upper, lower = f[:, joint] > high - margin, f[:, joint] < low + margin
+                    if everywhere and block.degree - order >= 4:
+                        middle = (low + high) / 2 if np.isfinite(low + high) else 0.0
+                        upper, lower = upper | (f[:, joint] >= middle), lower | (f[:, joint] < middle)
+                    for side, near in ((1, upper), (-1, lower)):
                         for row, c in np.argwhere(near & inside[:, joint]):
                             found = Certificate(b, int(row), joint, order, side, block.degree - order)
                             if found.kind == "cubic" and order == 0:
@@ -456,12 +471,14 @@ def _certified_quantities(ca, certificates: list[Certificate], blocks: list[Segm
         joints = np.array([certificates[i].joint for i in chosen])
         flat = rows + len(block.segments) * joints
         inverse = 1.0 / _pick(ca, h, block.segments[rows]) ** order
-        spread = np.zeros((len(certificates), len(chosen)))
-        spread[chosen, np.arange(len(chosen))] = 1.0
+        # Certificate chosen[i] takes row i of ``term``: a sparse 0/1 matrix (dense, it would cost
+        # certificates x chosen entries to build, every round).
+        spread = ca.DM(ca.Sparsity.triplet(len(certificates), len(chosen), list(chosen), list(range(len(chosen)))),
+                       1.0)
         for power in range(block.degree - order + 1):
             falling = factorial(power + order) / factorial(power)
             term = falling * _pick(ca, ca.vec(block.coefficients[power + order]), flat) * inverse
-            f[power] = f[power] + ca.mtimes(ca.DM(spread), term)
+            f[power] = f[power] + ca.mtimes(spread, term)
     return f
 
 
@@ -507,7 +524,8 @@ def nlp_refine(problem: TimingProblem, starts: dict[str, np.ndarray], tracker: S
     workers = len(labels) if problem.segment_count >= CONCURRENT_SEGMENTS else 1
     outcomes = map_forked(nlp.solve, list(repaired.durations), workers)
     for label, outcome in zip(labels, outcomes):
-        result = tracker.evaluate(outcome.durations[None])
+        result = (tracker.evaluate(outcome.durations[None]) if outcome.states is None
+                  else tracker.evaluate_states(outcome.durations[None], outcome.states[None]))
         tracker.starts.append(StartReport(label, float(result.objective[0]), bool(result.feasible[0]),
                                           outcome.iterations, outcome.rounds, outcome.status,
                                           outcome.certificates))

@@ -64,6 +64,8 @@ class Evaluation:
         ratios: (B, 3, J) constraint ratios of the repaired durations.
         position_excess: (B,) largest position-range violation [rad] (0 when inside).
         feasible: (B,) all ratios <= 1 (+1e-9), position range held, bounds held.
+        states: (B, n, J, 3) the via-point states (velocity, acceleration, jerk) of a family with free
+            states, when they were given (``evaluate_states``); None: the family's rule.
     """
 
     durations: np.ndarray
@@ -71,6 +73,7 @@ class Evaluation:
     ratios: np.ndarray
     position_excess: np.ndarray
     feasible: np.ndarray
+    states: np.ndarray | None = None
 
 
 class TimingProblem:
@@ -189,9 +192,16 @@ class TimingProblem:
 
     # ------------------------------------------------------------------ evaluation
 
-    def _figures(self, durations: np.ndarray):
+    def coefficients(self, durations: np.ndarray, states: np.ndarray | None = None) -> np.ndarray:
+        """(B, S, J, D+1) the family's coefficients for durations (B, S) [s], and via-point states
+        (B, n, J, 3) where the family's are free (None: its fixed rule)."""
+        if states is None:
+            return self.family.batch_coefficients(self.via_points, durations)
+        return self.family.coefficients_from_states(self.via_points, durations, states)
+
+    def _figures(self, durations: np.ndarray, states: np.ndarray | None = None):
         """Coefficients, constraint ratios (B, 3, J) and time-scale factors (B,) of durations (B, S)."""
-        coefficients = self.family.batch_coefficients(self.via_points, durations)
+        coefficients = self.coefficients(durations, states)
         return (coefficients, *batch_scale_factors(coefficients, durations, self.limits))
 
     def _position_excess(self, coefficients: np.ndarray, durations: np.ndarray) -> np.ndarray:
@@ -222,10 +232,7 @@ class TimingProblem:
         x = np.atleast_2d(np.asarray(candidates, dtype=float))
         coefficients, ratios, scale = self._figures(x)
         energy = self._energy(coefficients, x)
-        if self.uses_jerk_energy:
-            ray_optimum = np.cbrt(np.sqrt(5.0 * self.weights[1] * energy / (self.weights[0] * x.sum(axis=1))))
-            scale = np.maximum(scale, ray_optimum)
-        scale = np.where(scale > 0, scale, 1.0)
+        scale = self._repair_scale(scale, energy, x)
         h = x * scale[:, None]
         if self.bounds is None:
             if np.all(h >= self.duration_floor):
@@ -240,6 +247,14 @@ class TimingProblem:
                 break
             h = h * np.maximum(scale, 1.0)[:, None]
         return self._score(h, ratios, self._position_excess(coefficients, h), self._energy(coefficients, h))
+
+    def _repair_scale(self, scale: np.ndarray, energy: np.ndarray, h: np.ndarray) -> np.ndarray:
+        """The repair's factor (B,): the time-scale factor, for ``time-jerk`` no less than the ray's
+        optimum s_opt = (5 K_j E / (K_t T))^(1/6); 1 where nothing is limited."""
+        if self.uses_jerk_energy:
+            k_t, k_j = self.weights
+            scale = np.maximum(scale, np.cbrt(np.sqrt(5.0 * k_j * energy / (k_t * h.sum(axis=1)))))
+        return np.where(scale > 0, scale, 1.0)
 
     def _raise_to_floor(self, h: np.ndarray) -> Evaluation:
         """Durations (B, S) raised to ``duration_floor``, then scaled up until every limit holds."""
@@ -261,16 +276,32 @@ class TimingProblem:
         return Evaluation(h, np.where(feasible, value, value + penalty * (1.0 + total)), ratios,
                           position_excess, feasible)
 
-    def evaluate_durations(self, durations) -> Evaluation:
-        """Evaluate durations (B, S) [s] exactly as given, without repair."""
+    def evaluate_durations(self, durations, states: np.ndarray | None = None) -> Evaluation:
+        """Evaluate durations (B, S) [s] (and free via-point states (B, n, J, 3)) exactly as given,
+        without repair."""
         h = np.atleast_2d(np.asarray(durations, dtype=float))
-        coefficients, ratios, _ = self._figures(h)
-        return self._score(h, ratios, self._position_excess(coefficients, h), self._energy(coefficients, h))
+        coefficients, ratios, _ = self._figures(h, states)
+        return replace(self._score(h, ratios, self._position_excess(coefficients, h), self._energy(coefficients, h)),
+                       states=states)
 
-    def trajectory(self, durations) -> PiecewisePolynomial:
-        """The family's trajectory for one duration vector (S,) [s]; its ``via_knots`` has one
-        entry per given via-point (repeated ones share a knot)."""
+    def evaluate_states(self, durations: np.ndarray, states: np.ndarray) -> Evaluation:
+        """Repair durations (B, S) [s] with the free via-point states (B, n, J, 3) of a family that
+        has them, by the lemma: durations times s, velocity, acceleration and jerk divided by s, s^2,
+        s^3 (``time_scale_factor``; for ``time-jerk`` no less than the ray's optimum), so every limit
+        holds and one is reached. Bounds are not enforced by the repair (the NLP imposes them):
+        a result outside them is penalised."""
+        h = np.atleast_2d(np.asarray(durations, dtype=float))
+        coefficients, _, scale = self._figures(h, states)
+        scale = self._repair_scale(scale, self._energy(coefficients, h), h)
+        return self.evaluate_durations(h * scale[:, None], states / powers(scale, 4)[:, None, None, 1:])
+
+    def trajectory(self, durations, states: np.ndarray | None = None) -> PiecewisePolynomial:
+        """The family's trajectory for one duration vector (S,) [s] (and, where the family's are free,
+        via-point states (n, J, 3); None: its fixed rule); its ``via_knots`` has one entry per given
+        via-point (repeated ones share a knot)."""
         built = self.family.build(self.via_points, durations)
+        if states is not None:
+            built = replace(built, coefficients=self.coefficients(built.durations[None], states[None])[0])
         return replace(built, via_knots=built.via_knots[self.via_index])
 
 

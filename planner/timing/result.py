@@ -62,6 +62,9 @@ class OptimizationResult:
         seed: the seed of its random generator (None when deterministic).
         settings: the algorithm's settings.
         starts: the refinement's starts, when it ran the sparse NLP.
+        knot_states: (n, J, 3) velocity, acceleration and jerk at each (merged) via-point, where the
+            family's are free and the NLP chose them (``TimingProblem.trajectory``); None: the
+            family's own rule.
     """
 
     algorithm: str
@@ -77,6 +80,7 @@ class OptimizationResult:
     seed: int | None
     settings: dict = field(default_factory=dict)
     starts: list[StartReport] = field(default_factory=list)
+    knot_states: np.ndarray | None = None
 
     def __post_init__(self):
         freeze_arrays(self)
@@ -138,6 +142,7 @@ class SearchTracker:
         self.best_durations: np.ndarray | None = None
         self.best_objective = np.inf
         self.best_feasible = False
+        self.best_states: np.ndarray | None = None
         self.history: list[float] = []
         self.starts: list[StartReport] = []
         self._progress = progress
@@ -147,6 +152,15 @@ class SearchTracker:
     def evaluate(self, candidates: np.ndarray, repair: bool = True) -> Evaluation:
         """Evaluate a batch (repaired from the search box, or as durations) and track the best."""
         evaluation = self.problem.evaluate(candidates) if repair else self.problem.evaluate_durations(candidates)
+        self.evaluations += len(evaluation.objective)
+        self._offer(evaluation)
+        self._check_time()
+        return evaluation
+
+    def evaluate_states(self, durations: np.ndarray, states: np.ndarray) -> Evaluation:
+        """Evaluate durations (B, S) with free via-point states (B, n, J, 3), repaired
+        (``TimingProblem.evaluate_states``), and track the best."""
+        evaluation = self.problem.evaluate_states(durations, states)
         self.evaluations += len(evaluation.objective)
         self._offer(evaluation)
         self._check_time()
@@ -166,6 +180,7 @@ class SearchTracker:
             self.best_objective = float(evaluation.objective[i])
             self.best_durations = evaluation.durations[i].copy()
             self.best_feasible = bool(feasible[i])
+            self.best_states = None if evaluation.states is None else evaluation.states[i].copy()
 
     def end_iteration(self) -> None:
         """Close one iteration: record the best objective, report progress, check interruption and time."""
@@ -177,10 +192,11 @@ class SearchTracker:
 
     def result(self, algorithm: str, stop_reason: str, seed: int | None, settings: dict) -> OptimizationResult:
         """The result for the best candidate, re-checked exactly as durations (no repair)."""
-        final = self.problem.evaluate_durations(self.best_durations)
+        states = None if self.best_states is None else self.best_states[None]
+        final = self.problem.evaluate_durations(self.best_durations, states)
         return OptimizationResult(
             algorithm=algorithm, durations=final.durations[0], total_time=float(final.durations[0].sum()),
             objective=float(final.objective[0]), ratios=final.ratios[0], feasible=bool(final.feasible[0]),
             evaluations=self.evaluations, wall_time_s=time.perf_counter() - self._start,
             history=list(self.history), stop_reason=stop_reason, seed=seed, settings=settings,
-            starts=list(self.starts))
+            starts=list(self.starts), knot_states=self.best_states)
