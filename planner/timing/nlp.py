@@ -452,9 +452,10 @@ class _Program:
         self.lbg, self.ubg = np.concatenate(lower), np.concatenate(upper)
         variables = ca.vertcat(eta, spline.states, certificate_variables)
         remaining = remaining_time()  # IPOPT stops by itself at the time limit
-        # With certificates the expression graph is deep (quintic: ~10x fewer seconds once expanded to
-        # scalar form); without, expanding only costs time (hybrid, n = 1024: 2.2 s -> 3.5 s).
-        options: dict[str, Any] = {**IPOPT_OPTIONS, "expand": bool(certificates)}
+        # Not expanded to scalar form: building that costs more than it saves, with certificates too
+        # (quintic, n = 128: 15.3 s expanded, 5.9 s not; hermite7 paper case 8.3 s, 2.8 s; hybrid,
+        # n = 1024, without certificates: 3.5 s, 2.2 s).
+        options: dict[str, Any] = {**IPOPT_OPTIONS, "expand": False}
         if remaining is not None:
             options["ipopt.max_wall_time"] = max(remaining, 1e-3)
         self.solver = ca.nlpsol("timing", "ipopt", {"x": variables, "f": objective / scales.time,
