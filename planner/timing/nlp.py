@@ -280,6 +280,9 @@ class TimingNLP:
         ``CUT_SPACING`` covers the extreme. Returns the new list and whether it changed.
         """
         result = list(certificates)
+        placed: dict[tuple, list[Certificate]] = {}
+        for certificate in result:
+            placed.setdefault(certificate.place, []).append(certificate)
         changed = False
         resting = self.formulation.knot_resting_sides()
         for b, block in enumerate(self.blocks):
@@ -306,7 +309,7 @@ class TimingNLP:
                                 segment = block.segments[row]  # joins knots segment, segment + 1
                                 ends = [e for e in (0, 1) if resting[segment + e, joint] == side]
                                 found = replace(found, touch=ends[0] if ends else None)
-                            changed |= _place(result, found, float(s[row, joint, c]))
+                            changed |= _place(result, placed, found, float(s[row, joint, c]))
         return result, changed
 
     def _certified_polynomials(self, certificates: list[Certificate], f: list) -> list:
@@ -366,10 +369,11 @@ class TimingNLP:
         return self._base
 
 
-def _place(certificates: list[Certificate], found: Certificate, location: float) -> bool:
+def _place(certificates: list[Certificate], placed: dict[tuple, list[Certificate]], found: Certificate,
+           location: float) -> bool:
     """Add ``found`` for an extreme at ``location`` unless a certificate already covers it;
-    True if it was added."""
-    same = [c for c in certificates if c.place == found.place]
+    True if it was added. ``placed`` indexes ``certificates`` by ``Certificate.place``, kept in step."""
+    same = placed.setdefault(found.place, [])
     if found.kind == "cut":
         found = replace(found, centre=location)
         if any(c.centre is not None and abs(c.centre - location) <= CUT_SPACING for c in same):
@@ -377,6 +381,7 @@ def _place(certificates: list[Certificate], found: Certificate, location: float)
     elif same:
         return False
     certificates.append(found)
+    same.append(found)
     return True
 
 
