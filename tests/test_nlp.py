@@ -5,6 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from conftest import clipped_walk
 from planner import JointLimits, get_family, kinematic_figures, paper
 from planner.timing import TimingProblem, optimize
 from planner.timing.formulations import FORMULATIONS, HYBRID_END, HYBRID_END_JERK, Scales
@@ -275,18 +276,6 @@ def test_starts_agree_only_within_the_agreement_gap():
 
 # ------------------------------------------------------------------ hard tasks: clipped random walks
 
-#: The PUMA 560's position ranges [deg] (robots/puma560.urdf), the bounds the clipped walks sit on.
-PUMA_RANGES = np.deg2rad([[-160.0, -225.0, -45.0, -110.0, -100.0, -266.0], [160.0, 45.0, 225.0, 170.0, 100.0, 266.0]])
-
-
-def clipped_walk(count: int, seed: int) -> np.ndarray:
-    """(count, 6) a random walk (steps uniform in +-40 deg) clipped to the PUMA ranges: many via-points on a
-    bound, joints resting over whole chords (the hard class of scripts/bench_scale.py)."""
-    steps = np.random.default_rng(seed).uniform(-40.0, 40.0, (count - 1, 6))
-    walk = np.deg2rad(np.vstack((np.zeros(6), np.cumsum(steps, axis=0))))
-    return np.clip(walk, *PUMA_RANGES)
-
-
 def assert_limits_hold_when_sampled(problem: TimingProblem, durations: np.ndarray, samples: int = 200001) -> None:
     """Independent of the exact extrema: positions through the via-points, and |v|, |a|, |j| under the
     limits at dense samples (1e-9 relative)."""
@@ -303,8 +292,8 @@ def assert_limits_hold_when_sampled(problem: TimingProblem, durations: np.ndarra
 @pytest.mark.parametrize("count, seed", [(48, 101), (256, 256)])
 def test_clipped_random_walk_every_start_converges(paper_limits, count, seed):
     """Before log-durations, the cruise start of (256, 256) stopped at IPOPT's iteration cap."""
-    via = clipped_walk(count, seed)
-    assert np.isclose(via, PUMA_RANGES[0]).any() and np.isclose(via, PUMA_RANGES[1]).any()
+    via, ranges = clipped_walk(count, seed)
+    assert np.isclose(via, ranges.lower).any() and np.isclose(via, ranges.upper).any()
     problem = TimingProblem(via, "hybrid", paper_limits)
     result = optimize(problem)
     assert [s.status for s in result.starts] == ["Solve_Succeeded"] * 3
@@ -317,7 +306,7 @@ def test_slow_start_does_not_collapse(paper_limits):
     """A start with every segment far slower than its limits but one (what the cruise shape gives a walk with a
     tiny chord) converges to the optimum the good starts find; with the durations themselves as variables
     IPOPT's first step shrank them 50-fold and the solve stalled in restoration."""
-    problem = TimingProblem(clipped_walk(128, 107), "hybrid", paper_limits)
+    problem = TimingProblem(clipped_walk(128, 107)[0], "hybrid", paper_limits)
     shape = np.ones(problem.segment_count)
     shape[problem.segment_count // 2] = 1e-3
     slow = problem.evaluate(shape[None]).durations[0]

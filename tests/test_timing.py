@@ -3,7 +3,6 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from conftest import clipped_walk
 from planner import InfeasibleError, InputError, JointLimits, get_family, kinematic_figures, paper
 from planner.limits import FEASIBILITY_TOLERANCE, in_degrees_apart
 from planner.timing import OPTIMIZERS, TimingProblem, cuckoo_search, optimize
@@ -152,17 +151,35 @@ def test_in_degrees_apart_reads_differently(value, bound, expected):
     assert said[0] != said[1] and said[0].startswith(expected[0]) and said[1].startswith(expected[1])
 
 
-def test_a_feasible_candidate_is_never_displaced_by_an_infeasible_one():
-    """Joint 2 rests on its upper bound over the last chords: Cuckoo Search meets infeasible candidates
-    whose penalised objective is below the feasible NLP result's, and one NLP start ends infeasible.
-    The result is the best feasible candidate."""
-    via, limits = clipped_walk(8, 9)
-    problem = TimingProblem(via, "hybrid", limits)
-    result = optimize(problem, seed=0)
-    feasible = [s.objective for s in result.starts if s.feasible]
-    assert feasible and len(feasible) < len(result.starts), "the case should mix feasible and infeasible starts"
-    assert result.feasible and result.objective <= min(feasible) * (1 + 1e-12)
-    assert kinematic_figures(problem.trajectory(result.durations)).violations(limits) == []
+def test_a_feasible_candidate_is_never_displaced_by_an_infeasible_one(paper_via, paper_limits):
+    """The tracker keeps the best feasible candidate before any infeasible one, whatever their
+    penalised objectives (an infeasible candidate with a small penalty once displaced a feasible NLP
+    result), and among feasible ones the best."""
+    from planner.timing.problem import Evaluation
+    from planner.timing.result import SearchTracker
+
+    class Offered:  # a problem whose evaluations are given: the tracker's rule alone is under test
+        def __init__(self, problem):
+            self.real, self.queue = problem, []
+
+        def evaluate(self, candidates):
+            return self.queue.pop(0)
+
+        def __getattr__(self, name):
+            return getattr(self.real, name)
+
+    def evaluation(objectives, feasible):
+        count = len(objectives)
+        return Evaluation(np.full((count, 9), float(count)), np.array(objectives, dtype=float),
+                          np.zeros((count, 3, 6)), np.zeros(count), np.array(feasible))
+
+    problem = Offered(TimingProblem(paper_via, "hybrid", paper_limits))
+    tracker = SearchTracker(problem)
+    problem.queue = [evaluation([30.0, 20.0], [True, False]), evaluation([10.0], [False]),
+                     evaluation([25.0, 40.0], [True, True]), evaluation([26.0], [True])]
+    for _ in range(4):
+        tracker.evaluate(np.zeros((1, 9)))
+    assert tracker.best_feasible and tracker.best_objective == 25.0
 
 
 def test_upper_bound_too_small_is_infeasible():
