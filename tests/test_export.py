@@ -65,3 +65,38 @@ def test_coefficients_document_says_its_axes_and_degrees(trajectory):
     document = coefficients_document(trajectory)
     assert document["coefficients_axes"] == ["segment", "joint", "power"]
     assert document["segment_degrees"] == [7] + [3] * 7 + [7]  # hybrid: 7th-order ends, cubic interior
+
+
+def test_json_keeps_the_digits_asked_for_at_any_depth_and_plain_types(tmp_path):
+    """summary.json rounds to 12 significant digits (float noise of sums goes), inside lists and maps too;
+    numpy scalars become plain ints and bools, non-finite floats null."""
+    import json
+
+    from planner.export import json_ready, write_json
+    data = {"top": 14.999999999999998, "nested": {"list": [0.1 + 0.2, (1.0000000000001, np.float64(2.5))]},
+            "count": np.int64(7), "flag": np.bool_(True), "off": np.bool_(False), "none": np.inf,
+            "array": np.array([1 / 3])}
+    write_json(tmp_path / "s.json", data, digits=12)
+    read = json.loads((tmp_path / "s.json").read_text())
+    assert read == {"top": 15.0, "nested": {"list": [0.3, [1.0, 2.5]]}, "count": 7, "flag": True, "off": False,
+                    "none": None, "array": [0.333333333333]}
+    assert type(read["count"]) is int and json_ready(np.bool_(True)) is True
+    assert json_ready({"x": 14.999999999999998})["x"] == 14.999999999999998  # all digits by default
+
+
+def test_coefficients_document_has_exactly_its_schema(trajectory):
+    document = coefficients_document(trajectory, ["a", "b", "c", "d", "e", "f"])
+    assert set(document) == {"format", "units", "basis", "normalized_basis", "joint_names", "coefficients_axes",
+                             "segment_degrees", "knot_times_s", "durations_s", "via_times_s", "coefficients",
+                             "normalized_coefficients"}
+    assert document["format"] == "piecewise-polynomial/v1" and document["units"] == {"time": "s", "position": "rad"}
+    assert document["joint_names"] == ["a", "b", "c", "d", "e", "f"]
+    np.testing.assert_allclose(document["via_times_s"], trajectory.via_times)
+    np.testing.assert_allclose(document["knot_times_s"], trajectory.knot_times)
+    np.testing.assert_allclose(document["durations_s"], trajectory.durations)
+
+
+def test_csv_lines_end_in_a_line_feed_only(tmp_path, trajectory):
+    write_trajectory_csv(tmp_path / "t.csv", trajectory, 10.0)
+    raw = (tmp_path / "t.csv").read_bytes()
+    assert b"\r" not in raw and raw.endswith(b"\n") and raw.count(b"\n") == len(trajectory.sample_times(10.0)) + 1

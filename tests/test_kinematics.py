@@ -192,3 +192,65 @@ def test_the_quantity_table_agrees_with_the_maths_and_the_outputs(paper_via, tmp
     write_trajectory_csv(tmp_path / "t.csv", trajectory, 10.0, ["a", "b", "c", "d", "e", "f"])
     header = (tmp_path / "t.csv").read_text().splitlines()[0].split(",")
     assert header[1::6] == [f"{q.column}_a_{q.key_unit}" for q in PROFILE_QUANTITIES]  # joint a of each block
+
+
+@pytest.mark.parametrize("degree", [1, 2, 3, 4, 5, 6])
+@pytest.mark.parametrize("scale", [1e-6, 1e-3, 1.0, 1e3])
+def test_column_roots_do_not_depend_on_the_polynomials_scale(degree, scale):
+    """Roots of k p are those of p, however small or large k (a joint that barely moves)."""
+    rng = np.random.default_rng(degree)
+    inside = np.sort(rng.uniform(0.05, 0.95, max(degree - 1, 1)))[:degree]
+    p = np.polynomial.polynomial.polyfromroots(np.concatenate((inside, rng.uniform(2, 3, degree - len(inside)))))
+    found = column_roots((p * scale)[None, None, None])[0, 0, 0]
+    np.testing.assert_allclose(np.sort(found[~np.isnan(found)]), inside, atol=1e-7)
+
+
+@pytest.mark.parametrize("real_root", [0.35, 0.8])
+def test_column_roots_with_complex_conjugate_pairs(real_root):
+    """A cubic (closed form) and a quintic (eigenvalues) with one real root in [0, 1] and complex pairs."""
+    for roots in ([real_root, 1.2 + 0.05j, 1.2 - 0.05j], [real_root, 0.5 + 0.3j, 0.5 - 0.3j, -1 + 2j, -1 - 2j]):
+        p = np.polynomial.polynomial.polyfromroots(roots).real
+        found = column_roots(p[None, None, None])[0, 0, 0]
+        np.testing.assert_allclose(found[~np.isnan(found)], [real_root], atol=1e-9)
+
+
+def test_column_roots_of_mixed_degrees_in_one_column():
+    """Cubic, quadratic, linear and constant polynomials side by side (joints of one column), each
+    compared with numpy's roots."""
+    cubic = np.polynomial.polynomial.polyfromroots([0.2, 0.6, 2.0])
+    quadratic = np.concatenate((np.polynomial.polynomial.polyfromroots([0.45, -1.0]), [0.0]))
+    linear = np.array([-0.7, 1.0, 0.0, 0.0])
+    constant = np.array([2.0, 0.0, 0.0, 0.0])
+    found = column_roots(np.stack((cubic, quadratic, linear, constant))[None, None])[0, 0]
+    for roots, expected in zip(found, ([0.2, 0.6], [0.45], [0.7], [])):
+        np.testing.assert_allclose(np.sort(roots[~np.isnan(roots)]), expected, atol=1e-9)
+
+
+def test_extremes_of_segments_of_mixed_degree_match_dense_sampling():
+    """A constant first segment, then a cubic, then an all-zero one: max |q'|, |q''|, |q'''| and the
+    position range agree with dense sampling."""
+    from conftest import dense_extremes
+    from planner.splines import PiecewisePolynomial
+    coefficients = np.zeros((3, 2, 4))
+    coefficients[0, :, 0] = [0.5, -0.2]
+    coefficients[1, :, :] = [[0.5, 0.0, 0.9, -0.4], [-0.2, 0.3, -0.1, 0.05]]
+    trajectory = PiecewisePolynomial(np.array([1.0, 2.0, 0.5]), coefficients, np.array([0, 1, 2, 3]))
+    figures = kinematic_figures(trajectory)
+    largest, low, high = dense_extremes(trajectory, per_segment=20001)  # a sample at a knot takes the next segment
+    assert np.all(figures.max_abs >= largest * (1 - 1e-9)) and np.all(figures.max_abs <= largest * 1.001)
+    assert np.all(figures.position_min <= low + 1e-12) and np.all(figures.position_min >= low - 1e-3)
+    assert np.all(figures.position_max >= high - 1e-12) and np.all(figures.position_max <= high + 1e-3)
+
+
+def test_a_position_violation_reads_above_or_below_and_the_tolerance_is_exact(paper_via):
+    trajectory = get_family("hybrid").build(paper_via, paper.DURATIONS_S)
+    figures = kinematic_figures(trajectory)
+    top = figures.position_max[2]
+    for beyond, expected in ((0.75e-9, []), (1.5e-9, ["upper"])):
+        limits = JointLimits.create(6, upper=np.where(np.arange(6) == 2, top - beyond, np.inf))
+        found = figures.violations(limits)
+        assert [v.side for v in found] == expected
+    (violation,) = found
+    assert (violation.quantity, violation.order, violation.index) == ("position", 0, 2)
+    assert str(violation) == (f"joint joint3 position {np.rad2deg(top):.6g} deg is above its upper limit "
+                              f"{np.rad2deg(top - 1.5e-9):.6g} deg")
