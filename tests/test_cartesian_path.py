@@ -176,3 +176,21 @@ def test_linear_mode_says_what_each_round_does(tmp_path, capsys):
     assert rounds[0].startswith("straight-line round 1: 0 poses inserted, the tool strays up to 144 mm")
     assert all("inserting a pose in each of the" in line for line in rounds[:-1])
     assert rounds[-1].endswith("within the tolerances") and f"round {len(rounds)}:" in rounds[-1]
+
+
+def test_running_out_of_rounds_names_the_worst_segment_and_says_how_far(tmp_path, monkeypatch):
+    import planner.cartesian_path as cartesian_path
+    from planner import IKError
+    notes = []
+    monkeypatch.setattr(cartesian_path, "MAX_ROUNDS", 2)  # the UR5 task needs more rounds in linear mode
+    task = load_task(linear_ur5_task(tmp_path))
+    from planner.progress import TerminalProgress
+    progress = TerminalProgress("", quiet=True)
+    monkeypatch.setattr(progress, "note", notes.append)
+    with pytest.raises(IKError, match=r"^path segment (\d) \(waypoint \1 -> \d\): the tool still strays [\d.]+ mm and "
+                                      r"[\d.e+-]+ deg from the straight line after 2 rounds$") as caught:
+        plan(task, progress=progress)
+    segment = int(caught.value.args[0].split()[2])
+    assert caught.value.waypoint == segment and 0 <= segment < len(task.cartesian_waypoints) - 1
+    assert [n.split(":")[0] for n in notes if n.startswith("straight-line")] == ["straight-line round 1",
+                                                                                 "straight-line round 2"]
