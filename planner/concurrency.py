@@ -8,7 +8,7 @@ cross a pipe, pickled. Where the platform cannot fork, or one core is all
 there is, the work runs in the calling process, in order: same results.
 
 A child's exception is raised again in the parent; an interruption of the
-parent (Ctrl-C, a time limit, an error in its own share) ends the children.
+parent (Ctrl-C, SIGTERM, a time limit, an error in its own share) ends the children at once.
 """
 
 from __future__ import annotations
@@ -16,6 +16,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 import pickle
+import signal
 from typing import Callable, Sequence, TypeVar
 
 Item = TypeVar("Item")
@@ -76,14 +77,24 @@ def map_forked(function: Callable[[Item], Result], items: Sequence[Item], worker
 
 
 def _serve(function: Callable, items: list, send) -> None:
-    """A child's work: ``(False, results)`` or ``(True, exception)`` down ``send``."""
+    """A child's work: ``(False, results)`` or ``(True, exception)`` down ``send``.
+
+    The parent alone answers Ctrl-C and SIGTERM (and then ends its children): a child ignores
+    SIGINT and dies at once on SIGTERM, rather than running the handlers it inherited, which a
+    library may swallow (IPOPT does) and which would leave it running after its parent has gone.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     message: tuple[bool, object]
     try:
         message = (False, [function(item) for item in items])
-    except BaseException as exc:  # noqa: BLE001 - every failure, interruptions included, goes to the parent
+    except BaseException as exc:  # noqa: BLE001 - every failure goes to the parent
         message = (True, exc if _picklable(exc) else RuntimeError(f"{type(exc).__name__}: {exc}"))
-    send.send(message)
-    send.close()
+    try:
+        send.send(message)
+        send.close()
+    except OSError:  # the parent has stopped listening: nobody needs the result
+        pass
 
 
 def _picklable(exc: BaseException) -> bool:

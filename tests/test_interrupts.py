@@ -69,3 +69,32 @@ def test_sigterm_during_the_solver_exits_143_and_writes_nothing(tmp_path):
     _, err = process.communicate(timeout=120)
     assert process.returncode == 143 and err == "terminated\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["slow.yaml"]
+
+
+def test_sigterm_while_nlp_starts_run_in_processes_leaves_none_running(tmp_path):
+    """From 64 segments the NLP's starts run in forked processes: SIGTERM to the command (and its
+    process group, as a terminal or a supervisor sends it) ends them all, with one line and no output."""
+    import os
+
+    steps = np.random.default_rng(7).uniform(-40, 40, (299, 6))
+    data = yaml.safe_load((ROOT / "scripts" / "tasks" / "puma560_paper_joint.yaml").read_text())
+    data["waypoints"] = {"joints_deg": np.vstack((np.zeros(6), np.cumsum(steps, axis=0))).tolist()}
+    data.pop("optimizer")
+    (tmp_path / "long.yaml").write_text(yaml.safe_dump(data))
+    process = subprocess.Popen([sys.executable, "-m", "planner.cli", "plan", str(tmp_path / "long.yaml"),
+                                "--out", str(tmp_path / "out")], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               text=True, start_new_session=True)
+
+    def group() -> list[str]:
+        listed = subprocess.run(["ps", "-o", "pid=", "-g", str(process.pid)], capture_output=True, text=True)
+        return listed.stdout.split()
+
+    deadline = time.monotonic() + 60
+    while len(group()) < 3 and process.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert process.poll() is None and len(group()) >= 3, "the starts did not run in processes"
+    os.killpg(process.pid, signal.SIGTERM)
+    _, err = process.communicate(timeout=60)
+    time.sleep(0.5)
+    assert process.returncode == 143 and err == "terminated\n"
+    assert group() == [] and sorted(p.name for p in tmp_path.iterdir()) == ["long.yaml"]
