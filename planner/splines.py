@@ -204,12 +204,14 @@ class SplineFamily:
         h = positive_durations("durations", durations, count)
         return via, h
 
-    def build(self, via_points, durations) -> PiecewisePolynomial:
-        """The family's trajectory through ``via_points`` (n, J) [rad] with ``durations`` (S,) [s]."""
+    def build(self, via_points, durations, states: np.ndarray | None = None) -> PiecewisePolynomial:
+        """The family's trajectory through ``via_points`` (n, J) [rad] with ``durations`` (S,) [s], and
+        via-point states (n, J, 3) for a family whose states are free (None: its fixed rule)."""
         via, h = self.check(via_points, durations)
         if h.ndim != 1:
             raise InputError(f"build takes one duration vector, got shape {h.shape}; use build_batch")
-        coefficients = self.batch_coefficients(via, h[None])[0]
+        coefficients = (self.batch_coefficients(via, h[None]) if states is None
+                        else self.coefficients_from_states(via, h[None], np.asarray(states)[None]))[0]
         return PiecewisePolynomial(h, coefficients, self.via_knots(via.shape[0]))
 
     def build_batch(self, via_points, durations) -> np.ndarray:

@@ -507,12 +507,17 @@ def _jerk_energy(ca, blocks: list[SegmentBlock], h):
     return total
 
 
+def _processes(problem: TimingProblem, starts: int) -> int:
+    """How many processes solve ``starts`` starts of ``problem``: one each from ``CONCURRENT_SEGMENTS``."""
+    return starts if problem.segment_count >= CONCURRENT_SEGMENTS else 1
+
+
 def nlp_settings(problem: TimingProblem, starts: int) -> dict:
     """The NLP's own settings for ``problem`` solved from ``starts`` starts, as ``summary.json`` records them."""
     return {"ipopt": {key.removeprefix("ipopt."): value for key, value in IPOPT_OPTIONS.items()
                       if key.startswith("ipopt.") and key not in ("ipopt.print_level", "ipopt.sb")},
             "variables": "log-durations and knot states", "max_rounds": MAX_ROUNDS, "flag_margin": FLAG_MARGIN,
-            "processes": starts if problem.segment_count >= CONCURRENT_SEGMENTS else 1}
+            "processes": _processes(problem, starts)}
 
 
 def nlp_refine(problem: TimingProblem, starts: dict[str, np.ndarray], tracker: SearchTracker) -> None:
@@ -527,8 +532,7 @@ def nlp_refine(problem: TimingProblem, starts: dict[str, np.ndarray], tracker: S
     repaired = tracker.evaluate(np.array([starts[label] for label in labels]))
     nlp = TimingNLP(problem, repaired.durations[int(np.argmin(repaired.objective))])
     nlp.blocks  # builds the program without certificates once, before any process forks
-    workers = len(labels) if problem.segment_count >= CONCURRENT_SEGMENTS else 1
-    outcomes = map_forked(nlp.solve, list(repaired.durations), workers)
+    outcomes = map_forked(nlp.solve, list(repaired.durations), _processes(problem, len(labels)))
     for label, outcome in zip(labels, outcomes):
         result = (tracker.evaluate(outcome.durations[None]) if outcome.states is None
                   else tracker.evaluate_states(outcome.durations[None], outcome.states[None]))

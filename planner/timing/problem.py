@@ -299,9 +299,7 @@ class TimingProblem:
         """The family's trajectory for one duration vector (S,) [s] (and, where the family's are free,
         via-point states (n, J, 3); None: its fixed rule); its ``via_knots`` has one entry per given
         via-point (repeated ones share a knot)."""
-        built = self.family.build(self.via_points, durations)
-        if states is not None:
-            built = replace(built, coefficients=self.coefficients(built.durations[None], states[None])[0])
+        built = self.family.build(self.via_points, durations, states)
         return replace(built, via_knots=built.via_knots[self.via_index])
 
 

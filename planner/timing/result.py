@@ -152,15 +152,15 @@ class SearchTracker:
     def evaluate(self, candidates: np.ndarray, repair: bool = True) -> Evaluation:
         """Evaluate a batch (repaired from the search box, or as durations) and track the best."""
         evaluation = self.problem.evaluate(candidates) if repair else self.problem.evaluate_durations(candidates)
-        self.evaluations += len(evaluation.objective)
-        self._offer(evaluation)
-        self._check_time()
-        return evaluation
+        return self._track(evaluation)
 
     def evaluate_states(self, durations: np.ndarray, states: np.ndarray) -> Evaluation:
         """Evaluate durations (B, S) with free via-point states (B, n, J, 3), repaired
         (``TimingProblem.evaluate_states``), and track the best."""
-        evaluation = self.problem.evaluate_states(durations, states)
+        return self._track(self.problem.evaluate_states(durations, states))
+
+    def _track(self, evaluation: Evaluation) -> Evaluation:
+        """Count ``evaluation``'s candidates, offer them as the best and stop at the time limit."""
         self.evaluations += len(evaluation.objective)
         self._offer(evaluation)
         self._check_time()
