@@ -12,8 +12,8 @@ import numpy as np
 from .limits import PROFILE_QUANTITIES, JointLimits
 from .splines import PiecewisePolynomial
 
-#: Most samples per joint drawn in a profile figure.
-PLOT_SAMPLES = 20_000
+#: Most samples per joint drawn in a profile figure (about 1200 pixels wide: four per pixel column).
+PLOT_SAMPLES = 5_000
 #: Via-point times are drawn as vertical lines up to this many via-points.
 PLOT_VIA_LINES = 200
 
@@ -82,10 +82,10 @@ def _draw_column(axes, column: ProfileColumn, limits: JointLimits, colours: list
                 level = np.rad2deg(column.levels[k - 1, j])
                 for value in (-level, level):
                     axis.axhline(value, color=colour, linestyle="-.", linewidth=1.1)
-        if len(via_times) <= PLOT_VIA_LINES:
-            for t, waypoint in zip(via_times, is_waypoint):
-                axis.axvline(t, color="0.45" if waypoint else "0.75", linestyle=":",
-                             linewidth=0.9 if waypoint else 0.6)
+        if len(via_times) <= PLOT_VIA_LINES:  # one collection per kind: an artist per line costs ~0.5 ms each
+            for chosen, colour, width in ((is_waypoint, "0.45", 0.9), (~is_waypoint, "0.75", 0.6)):
+                axis.vlines(via_times[chosen], 0.0, 1.0, transform=axis.get_xaxis_transform(), colors=colour,
+                            linestyles=":", linewidth=width)
         axis.grid(alpha=0.3)
         joint_lines = joint_lines or lines
     if column.title:
@@ -130,6 +130,13 @@ def _plain_text_figures():
         yield plt
 
 
+def _save(plt, figure, path: Path, dpi: int) -> None:
+    """Write ``figure`` as PNG at ``dpi`` and close it. zlib level 1: a line figure's encoding takes
+    a third of the time of matplotlib's default level 6, for a file about a fifth larger."""
+    figure.savefig(path, dpi=dpi, pil_kwargs={"compress_level": 1})
+    plt.close(figure)
+
+
 def plot_profiles(trajectory: PiecewisePolynomial, limits: JointLimits, path: Path, *, title: str = "",
                   rate_hz: float = 200.0, joint_names: list[str] | None = None,
                   waypoint_via: np.ndarray | None = None) -> None:
@@ -154,14 +161,18 @@ def plot_profiles(trajectory: PiecewisePolynomial, limits: JointLimits, path: Pa
         for k, axis in enumerate(axes):
             axis.set_ylabel(f"{PROFILE_QUANTITIES[k].name} [{PROFILE_QUANTITIES[k].degree_unit}]")
         keys, labels = _legend_keys([column], "", "")
-        # Labels given explicitly: legend() would drop names starting with "_".
-        axes[0].legend(lines + keys, names + labels, ncol=min(trajectory.joint_count + len(keys), 5),
-                       loc="lower center", bbox_to_anchor=(0.5, 1.02), fontsize=8)
+        # A fixed layout (tight_layout would draw the figure once more): the title, the legend's rows, the axes.
+        below_title = 0.995 - (0.02 if title else 0.0)
         if title:
-            figure.suptitle(title)
-        figure.tight_layout()
-        figure.savefig(path, dpi=110)
-        plt.close(figure)
+            figure.suptitle(title, y=0.995, va="top")
+        columns = min(len(lines) + len(keys), 5)
+        rows = -(-(len(lines) + len(keys)) // columns)
+        # Labels given explicitly: legend() would drop names starting with "_".
+        figure.legend(lines + keys, names + labels, ncol=columns, loc="upper center", bbox_to_anchor=(0.5, below_title),
+                      fontsize=8)
+        figure.subplots_adjust(left=0.085, right=0.985, bottom=0.045, top=below_title - 0.008 - 0.0145 * rows,
+                               hspace=0.1)
+        _save(plt, figure, path, dpi=110)
 
 
 def plot_profile_columns(columns: list[ProfileColumn], limits: JointLimits, path: Path, *, title: str = "",
@@ -191,5 +202,4 @@ def plot_profile_columns(columns: list[ProfileColumn], limits: JointLimits, path
                       bbox_to_anchor=(0.5, below_heading), fontsize=8)
         figure.subplots_adjust(left=0.06, right=0.99, bottom=0.045, top=below_heading - 0.065, hspace=0.12,
                                wspace=0.05)
-        figure.savefig(path, dpi=100)
-        plt.close(figure)
+        _save(plt, figure, path, dpi=100)

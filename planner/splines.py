@@ -19,7 +19,6 @@ from dataclasses import dataclass
 from math import factorial
 
 import numpy as np
-from scipy.interpolate import make_interp_spline
 from scipy.linalg import solve_banded
 
 from .errors import InputError
@@ -381,6 +380,8 @@ class QuinticFamily(SplineFamily):
 
     def batch_coefficients(self, via_points: np.ndarray, durations: np.ndarray) -> np.ndarray:
         """The quintic spline's coefficients: zero end velocity and acceleration, C4 inside (class docstring)."""
+        from scipy.interpolate import make_interp_spline  # imported where used: 0.1 s of every run's start
+
         batch, segments = durations.shape
         joints = via_points.shape[1]
         zero_ends = ([(1, np.zeros(joints)), (2, np.zeros(joints))],) * 2

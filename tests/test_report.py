@@ -35,15 +35,15 @@ def test_any_name_is_plain_text_without_warnings(name, tmp_path, capfd, caplog):
 
 
 def test_every_joint_is_in_the_legend(tmp_path, monkeypatch):
-    import matplotlib.axes
+    import matplotlib.figure
 
     legends = []
-    original = matplotlib.axes.Axes.legend
+    original = matplotlib.figure.FigureBase.legend
 
     def spy(self, *args, **kwargs):
         legends.append(original(self, *args, **kwargs))
         return legends[-1]
-    monkeypatch.setattr(matplotlib.axes.Axes, "legend", spy)
+    monkeypatch.setattr(matplotlib.figure.FigureBase, "legend", spy)
     names = ["_base", "$q$", "关节"]
     plot_profiles(trajectory_for(3), JointLimits.create(3), tmp_path / "p.png", joint_names=names)
     assert [text.get_text() for text in legends[0].get_texts()][:3] == names  # then the keys to the lines

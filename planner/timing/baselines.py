@@ -10,7 +10,6 @@ is not an evaluation budget: its finite differences spend far more.
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import differential_evolution
 
 from ..errors import InputError
 from .local import refine
@@ -64,6 +63,8 @@ def scipy_differential_evolution(problem: TimingProblem, *, population: int = 15
     members = population * len(lower)
     generations = max(1, evaluations // members - 1)
     tracker = SearchTracker(problem, progress, generations)
+    from scipy.optimize import differential_evolution  # imported where used: 0.1 s of every run's start
+
     solution = differential_evolution(
         lambda x: tracker.evaluate(x.T).objective, list(zip(lower, upper)), popsize=population,
         maxiter=generations, tol=0, seed=np.random.default_rng(seed), polish=False, vectorized=True,
