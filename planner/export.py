@@ -26,6 +26,8 @@ def json_ready(value, digits: int | None = None):
     if isinstance(value, (list, tuple)):
         return [json_ready(v, digits) for v in value]
     if isinstance(value, np.ndarray):
+        if value.dtype.kind in "fiu" and digits is None and np.isfinite(value).all():
+            return value.tolist()  # already plain: no walk over every entry
         return json_ready(value.tolist(), digits)
     if isinstance(value, (np.floating, float)):
         if not np.isfinite(value):
@@ -38,9 +40,20 @@ def json_ready(value, digits: int | None = None):
     return value
 
 
-def write_json(path: Path, data, digits: int | None = None) -> None:
-    """``data`` as indented JSON (``json_ready``, with ``digits`` significant digits if given)."""
-    path.write_text(json.dumps(json_ready(data, digits), indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
+def write_json(path: Path, data, digits: int | None = None, *, value_per_line: bool = False) -> None:
+    """``data`` as indented JSON (``json_ready``, with ``digits`` significant digits if given).
+
+    ``value_per_line``: ``data`` is a dict written one key per line, each value on that line
+    (for large arrays: Python's C encoder does this several times faster than an indented layout,
+    which puts every number on a line of its own and makes the file several times longer).
+    """
+    ready = json_ready(data, digits)
+    if value_per_line:
+        text = "{\n" + ",\n".join(f"  {json.dumps(key, ensure_ascii=False)}: {json.dumps(value, ensure_ascii=False)}"
+                                   for key, value in ready.items()) + "\n}"
+    else:
+        text = json.dumps(ready, indent=2, ensure_ascii=False)
+    path.write_text(text + "\n", encoding="utf-8")
 
 
 #: Rows sampled and written at once by ``write_trajectory_csv`` (bounds its memory).

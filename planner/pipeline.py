@@ -167,7 +167,8 @@ class PlanResult:
 
     def _write_recording(self, folder: Path) -> None:
         """coefficients.json and trajectory.rrd."""
-        write_json(folder / "coefficients.json", coefficients_document(self.trajectory, self.joint_names))
+        write_json(folder / "coefficients.json", coefficients_document(self.trajectory, self.joint_names),
+                   value_per_line=True)
         write_recording(self, folder / "trajectory.rrd")
 
     def _write_figure(self, folder: Path) -> None:

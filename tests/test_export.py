@@ -84,6 +84,24 @@ def test_json_keeps_the_digits_asked_for_at_any_depth_and_plain_types(tmp_path):
     assert json_ready({"x": 14.999999999999998})["x"] == 14.999999999999998  # all digits by default
 
 
+def test_value_per_line_json_reads_back_as_the_indented_one(tmp_path):
+    """coefficients.json's layout: one key per line, the same document as the indented layout,
+    arrays exact (all digits), non-finite entries of an array null, integer arrays integers."""
+    import json
+
+    from planner.export import write_json
+    data = {"a": np.array([[1 / 3, 2.0], [1e-300, -7.25]]), "b": np.array([1.0, np.nan]), "c": np.arange(3),
+            "d": {"nested": [np.float64(0.1), "关节"]}}
+    write_json(tmp_path / "lines.json", data, value_per_line=True)
+    write_json(tmp_path / "indented.json", data)
+    text = (tmp_path / "lines.json").read_text(encoding="utf-8")
+    read = json.loads(text)
+    assert read == json.loads((tmp_path / "indented.json").read_text(encoding="utf-8"))
+    assert read["a"] == [[1 / 3, 2.0], [1e-300, -7.25]] and read["b"] == [1.0, None] and read["c"] == [0, 1, 2]
+    assert [type(v) for v in read["c"]] == [int] * 3
+    assert len(text.splitlines()) == len(data) + 2 and text.endswith("}\n")
+
+
 def test_coefficients_document_has_exactly_its_schema(trajectory):
     document = coefficients_document(trajectory, ["a", "b", "c", "d", "e", "f"])
     assert set(document) == {"format", "units", "basis", "normalized_basis", "joint_names", "coefficients_axes",
