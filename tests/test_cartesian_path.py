@@ -194,3 +194,114 @@ def test_running_out_of_rounds_names_the_worst_segment_and_says_how_far(tmp_path
     assert caught.value.waypoint == segment and 0 <= segment < len(task.cartesian_waypoints) - 1
     assert [n.split(":")[0] for n in notes if n.startswith("straight-line")] == ["straight-line round 1",
                                                                                  "straight-line round 2"]
+
+
+# --- follow_straight_lines on its own: the PUMA, timed under the paper's limits ---
+
+PUMA = ROOT / "robots" / "puma560.urdf"
+
+
+@pytest.fixture(scope="module")
+def puma():
+    from planner.robot import load_robot
+    return load_robot(PUMA, tool_frame="tool")
+
+
+def paper_timing(via: np.ndarray):
+    """The via-points timed as a plan times them: hybrid, the paper's limits, the default optimizer."""
+    from planner import paper
+    from planner.timing import TimingProblem, optimize
+    problem = TimingProblem(via, "hybrid", paper.paper_limits())
+    result = optimize(problem, "default")
+    return problem.trajectory(result.durations), None
+
+
+def turn_in_place(puma):
+    """Three waypoints: a start, the same position turned 50 deg about the tool's x axis, then an arm move.
+    Interpolated in joint space, the turn strays about 13 deg from the slerp arc (and 22 mm from the point)."""
+    from planner.ik import solve_pose
+    q0 = np.deg2rad([10.0, -60.0, 150.0, 0.0, -30.0, 10.0])
+    a = puma.forward_kinematics(q0)
+    b = pin.SE3(a.rotation @ pin.exp3(np.deg2rad(50.0) * np.array([1.0, 0.0, 0.0])), a.translation)
+    turned = solve_pose(puma, b, q0)
+    assert turned.residual <= 1e-9
+    q2 = turned.q + np.deg2rad([15.0, 10.0, -10.0, 0.0, 0.0, 0.0])  # a configuration, so a reachable pose
+    return [a, b, puma.forward_kinematics(q2)], np.array([q0, turned.q, q2])
+
+
+def test_orientation_alone_makes_poses_inserted_and_the_bookkeeping_holds(puma):
+    """With a position tolerance that joint motion never exceeds, straying in orientation alone must
+    make poses be inserted, until the tool's angle to the slerp arc is within its tolerance by an
+    independent dense check; every inserted via-point puts the tool on its segment, and the
+    waypoints' indices and the inserted counts agree with the via-points."""
+    from planner.cartesian_path import follow_straight_lines
+    poses, q = turn_in_place(puma)
+    tolerance = np.deg2rad(0.5)
+    path, _ = follow_straight_lines(puma, poses, q, paper_timing, tolerance_m=10.0, tolerance_rad=tolerance)
+    assert path.inserted[0] > 0
+    np.testing.assert_allclose(path.via_points[path.waypoint_via], q)
+    assert list(path.inserted) == list(np.diff(path.waypoint_via) - 1)
+    assert len(path.via_points) == len(poses) + path.inserted.sum()
+    trajectory, _ = paper_timing(path.via_points)
+    for i in range(len(poses) - 1):
+        first, last = path.waypoint_via[i], path.waypoint_via[i + 1]
+        frames = [puma.forward_kinematics(v) for v in path.via_points[first:last + 1]]
+        distance, angle = segment_deviation(poses[i], poses[i + 1], np.array([f.translation for f in frames]),
+                                            np.array([f.rotation for f in frames]))
+        assert distance.max() <= 1e-8 and angle.max() <= 1e-8, f"an inserted pose is off segment {i}"
+        times = np.linspace(trajectory.via_times[first], trajectory.via_times[last], 1501)
+        frames = [puma.forward_kinematics(v) for v in trajectory.evaluate(times)]
+        _, dense_angle = dense_deviation(poses[i].translation, poses[i].rotation, poses[i + 1].translation,
+                                         poses[i + 1].rotation, np.array([f.translation for f in frames]),
+                                         np.array([f.rotation for f in frames]), 2001)
+        assert dense_angle.max() <= tolerance + 1e-3, f"segment {i}: {np.rad2deg(dense_angle.max())} deg"
+    assert path.max_angle_rad.max() <= tolerance
+
+
+def test_a_segment_that_never_comes_closer_is_given_up_naming_it(puma, monkeypatch):
+    """If the tool keeps straying on a segment however close the inserted poses come, the path gives up
+    once they are MIN_FRACTION apart, naming the segment and the fraction along it."""
+    import planner.cartesian_path as cartesian_path
+    poses, q = turn_in_place(puma)
+    real = cartesian_path.tool_deviation
+
+    def always_off_at_the_start_of_segment_1(robot, trajectory, poses, waypoint_via):
+        distance, angle, per_distance, per_angle = real(robot, trajectory, poses, waypoint_via)
+        distance[waypoint_via[1]] = 1.0  # the first interval of segment 1
+        return distance, angle, per_distance, per_angle
+    monkeypatch.setattr(cartesian_path, "tool_deviation", always_off_at_the_start_of_segment_1)
+    with pytest.raises(IKError, match=r"path segment 1 \(waypoint 1 -> 2\) at fraction 0\.0009766.*however close")\
+            as raised:
+        cartesian_path.follow_straight_lines(puma, poses, q, paper_timing, tolerance_m=0.01, tolerance_rad=1.0)
+    assert raised.value.waypoint == 1
+
+
+def test_an_inserted_pose_is_solved_from_a_neighbour_when_the_middle_seed_fails(puma, monkeypatch):
+    """IK for an inserted pose starts from the mean of its neighbours' configurations; if that fails,
+    from either neighbour."""
+    import dataclasses
+
+    import planner.cartesian_path as cartesian_path
+    poses, q = turn_in_place(puma)
+    real = cartesian_path.solve_pose
+    seeds = []
+
+    def middle_seed_fails(robot, target, seed, **kwargs):
+        seeds.append(seed)
+        solution = real(robot, target, seed, **kwargs)
+        return dataclasses.replace(solution, position_error=1.0) if len(seeds) % 2 == 1 else solution
+    monkeypatch.setattr(cartesian_path, "solve_pose", middle_seed_fails)
+    path, _ = cartesian_path.follow_straight_lines(puma, poses, q, paper_timing, tolerance_m=10.0,
+                                                   tolerance_rad=np.deg2rad(2.0))
+    assert path.inserted.sum() > 0 and len(seeds) == 2 * path.inserted.sum()
+    np.testing.assert_allclose(seeds[0], (q[0] + q[1]) / 2)  # the first insertion: segment 0's middle
+    np.testing.assert_allclose(seeds[1], q[0])
+
+
+def test_an_unreachable_straight_line_carries_the_segment_and_the_residual():
+    data = yaml.safe_load((TASKS / "puma560_paper_cartesian.yaml").read_text())
+    data["waypoints"]["cartesian"] = data["waypoints"]["cartesian"][:2]
+    data["path"] = {"mode": "linear"}
+    with pytest.raises(IKError, match="leaves the reachable workspace") as raised:
+        plan(parse_task(data, source=TASKS / "puma560_paper_cartesian.yaml"))
+    assert raised.value.waypoint == 0 and raised.value.residual > 1e-9
