@@ -22,7 +22,8 @@ the error falls below 1e-9 (m and rad) in a few iterations.
   picks one per waypoint by dynamic programming over the sequence, minimising
   the sum of the transition costs: the slowest joint's rest-to-rest time
   (``limits.rest_to_rest_time``) between consecutive configurations. A
-  waypoint with a hint has one candidate, the solution seeded by its hint.
+  waypoint with a hint has one candidate, the solution seeded by its hint; one
+  whose solutions have more than ``MAX_CANDIDATES`` turn variants is refused.
   With a start configuration (the robot's, before the task) the motion from it
   to the first waypoint counts too; without one, sequences of equal cost (a
   wrist flip moves the wrist joints by the same amounts) are told apart by the
@@ -75,6 +76,9 @@ SOLUTION_STARTS = 48
 DISTINCT = 1e-5
 #: At most this many distinct solutions per pose are kept (a redundant arm has infinitely many).
 MAX_SOLUTIONS = 16
+#: Most candidate configurations per waypoint (solutions times their 2 pi turns) the ``optimal`` rule
+#: compares: its dynamic programme holds K x K x nq transition times (2048: 200 MB for 6 joints).
+MAX_CANDIDATES = 2048
 #: Weight [s/rad] of the distance to the middle of the ranges, which only separates equal costs.
 _TIE_BREAK = 1e-4
 #: Newton iterations refining a closed-form solution (it starts within rounding of the pose).
@@ -256,25 +260,36 @@ def _turns_freely(robot: Robot, limits: JointLimits) -> np.ndarray:
     return robot.revolute & ~(np.isfinite(limits.lower) & np.isfinite(limits.upper))
 
 
-def turn_variants(robot: Robot, q: np.ndarray, limits: JointLimits) -> np.ndarray:
-    """(m, nq) every configuration equal to ``q`` up to 2 pi turns of revolute joints, within the
-    ranges of ``limits`` (m = 0 if none is). A revolute joint without a finite range keeps its
-    angle wrapped into [-pi, pi); the branch choice turns it the short way."""
+def _turn_options(robot: Robot, q: np.ndarray, limits: JointLimits) -> list[np.ndarray]:
+    """Per joint, the values of ``q_j`` up to 2 pi turns within its range (``turn_variants``)."""
     lower, upper = limits.lower, limits.upper
     free = _turns_freely(robot, limits)
     options = []
     for j in range(robot.dof):
         if free[j]:
-            values = [float(_wrapped(robot, q)[j])]
+            values = np.array([_wrapped(robot, q)[j]])
         elif not robot.revolute[j]:
-            values = [q[j]] if lower[j] - 1e-12 <= q[j] <= upper[j] + 1e-12 else []
+            values = np.array([q[j]] if lower[j] - 1e-12 <= q[j] <= upper[j] + 1e-12 else [])
         else:
             turns = np.arange(np.ceil((lower[j] - q[j]) / (2 * np.pi) - 1e-12),
                               np.floor((upper[j] - q[j]) / (2 * np.pi) + 1e-12) + 1)
-            values = list(np.clip(q[j] + 2 * np.pi * turns, lower[j], upper[j]))
-        if not values:
-            return np.zeros((0, robot.dof))
+            values = np.clip(q[j] + 2 * np.pi * turns, lower[j], upper[j])
         options.append(values)
+    return options
+
+
+def turn_variant_count(robot: Robot, q: np.ndarray, limits: JointLimits) -> int:
+    """How many configurations ``turn_variants`` gives (the product of each joint's turns in range)."""
+    return math.prod(len(values) for values in _turn_options(robot, q, limits))
+
+
+def turn_variants(robot: Robot, q: np.ndarray, limits: JointLimits) -> np.ndarray:
+    """(m, nq) every configuration equal to ``q`` up to 2 pi turns of revolute joints, within the
+    ranges of ``limits`` (m = 0 if none is). A revolute joint without a finite range keeps its
+    angle wrapped into [-pi, pi); the branch choice turns it the short way."""
+    options = _turn_options(robot, q, limits)
+    if not all(len(values) for values in options):
+        return np.zeros((0, robot.dof))
     grids = np.meshgrid(*options, indexing="ij")
     return np.stack([g.ravel() for g in grids], axis=1)
 
@@ -313,10 +328,10 @@ def pose_solutions(robot: Robot, target: pin.SE3, limits: JointLimits, rng: np.r
             solution = solve_pose(robot, target, seed, clip=False, max_iterations=_REFINE_ITERATIONS)
         else:
             solution = solve_pose(robot, target, seed, clip=False)
-        inside = solution.residual <= accept and len(turn_variants(robot, solution.q, limits)) > 0
+        inside = solution.residual <= accept and turn_variant_count(robot, solution.q, limits) > 0
         if solution.residual <= accept and not inside and solve is None:
             solution = solve_pose(robot, target, solution.q)
-            inside = solution.residual <= accept and len(turn_variants(robot, solution.q, limits)) > 0
+            inside = solution.residual <= accept and turn_variant_count(robot, solution.q, limits) > 0
         if inside and robot.model.nv > 6:
             solution = centred(robot, target, _widest_variant(robot, solution, limits), limits, accept)
         if best is None or (inside, -solution.residual) > (best[0], -best[1].residual):
@@ -331,8 +346,10 @@ def pose_solutions(robot: Robot, target: pin.SE3, limits: JointLimits, rng: np.r
 
 def _widest_variant(robot: Robot, solution: IKSolution, limits: JointLimits) -> IKSolution:
     """``solution`` turned (by 2 pi) into the ranges of ``limits``, with the widest margin of its variants."""
-    variants = turn_variants(robot, solution.q, limits)
-    q = max(variants, key=lambda v: range_margin_deg(v, limits))
+    # The margin is the smallest over the joints, so each joint's own widest turn gives the widest.
+    lower, upper = limits.lower, limits.upper
+    q = np.array([values[np.argmax(np.minimum(values - lower[j], upper[j] - values))]
+                  for j, values in enumerate(_turn_options(robot, solution.q, limits))])
     return replace(solution, q=q, margin_deg=range_margin_deg(q, limits))
 
 
@@ -404,6 +421,20 @@ def solve_waypoints(robot: Robot, poses: list[pin.SE3], *, hints: list[np.ndarra
     return _continuous_branch(robot, poses, hints, start, limits or robot.limits, rng, restarts, accept)
 
 
+def _check_candidate_count(robot: Robot, limits: JointLimits, index: int, found: list[IKSolution]) -> None:
+    """Refuse a waypoint whose solutions have more variants by 2 pi turns than ``MAX_CANDIDATES``."""
+    count = sum(turn_variant_count(robot, solution.q, limits) for solution in found)
+    if count <= MAX_CANDIDATES:
+        return
+    spans = limits.upper - limits.lower
+    wide = [f"{name} ({np.rad2deg(span):.6g} deg)" for name, span, revolute
+            in zip(robot.joint_names, spans, robot.revolute) if revolute and span > 2 * np.pi]
+    raise IKError(f"waypoint {index}: its {len(found)} IK solutions have {count} variants by 2 pi turns within the "
+                  f"joint ranges, more than the optimal branch rule compares ({MAX_CANDIDATES}); joints whose range "
+                  f"spans more than 360 deg: {', '.join(wide)}. Narrow those ranges (limits.position_deg) or choose "
+                  f"ik.branch: continuous", waypoint=index)
+
+
 def _optimal_branches(robot, poses, hints, start, limits, rng, accept) -> list[IKSolution]:
     """``solve_waypoints`` with the ``optimal`` rule."""
     per_pose, candidates, owners = [], [], []
@@ -418,6 +449,8 @@ def _optimal_branches(robot, poses, hints, start, limits, rng, accept) -> list[I
             raise IKError(f"waypoint {index}: pose not reached within the joint ranges after {attempts} "
                           f"attempt{'s' * (attempts > 1)}; best residual {best.position_error:.3g} m, "
                           f"{np.rad2deg(best.orientation_error):.3g} deg", waypoint=index, residual=best.residual)
+        if hint is None:
+            _check_candidate_count(robot, limits, index, found)
         variants = [s.q[None] if hint is not None else turn_variants(robot, s.q, limits) for s in found]
         per_pose.append((found, attempts))
         candidates.append(np.concatenate(variants))

@@ -13,6 +13,7 @@ from planner.ik import (
     pose_error,
     pose_from_position_quaternion,
     pose_solutions,
+    range_margin_deg,
     solve_pose,
     solve_waypoints,
     turn_variants,
@@ -161,6 +162,47 @@ def test_turn_variants_cover_every_turn_in_range(puma):
     np.testing.assert_allclose(variants[:, :5], np.rad2deg(np.tile(q[:5], (2, 1))))
     narrow = puma.limits.with_overrides(lower=np.deg2rad([20, -225, -45, -110, -100, -266]))
     assert len(turn_variants(puma, q, narrow)) == 0  # joint 1 at 10 deg is below 20 deg, in every turn
+
+
+def test_ranges_so_wide_that_the_turns_outnumber_the_branch_budget_are_refused_naming_the_joints():
+    """UR5 ranges of +-600 deg give each of a pose's 8 solutions about 4^6 turn variants: more than the
+    optimal rule's dynamic programme can hold (it needed 48 GB at +-720 deg). Refused at once, naming
+    the waypoint, the count and the wide joints; the continuous rule still plans it."""
+    import time
+
+    from planner.ik import MAX_CANDIDATES, turn_variant_count
+    robot = Robot.from_example_robot_data("ur5", "tool0")
+    wide = robot.limits.with_overrides(lower=np.full(6, np.deg2rad(-600.0)), upper=np.full(6, np.deg2rad(600.0)))
+    q = np.deg2rad([10.0, -60.0, 80.0, -100.0, -90.0, 30.0])
+    assert turn_variant_count(robot, q, wide) == len(turn_variants(robot, q, wide)) > MAX_CANDIDATES // 8
+    pose = robot.forward_kinematics(q)
+    started = time.perf_counter()
+    with pytest.raises(IKError, match=r"^waypoint 0: its \d+ IK solutions have \d+ variants by 2 pi turns .*"
+                                      r"shoulder_pan_joint \(1200 deg\).*ik\.branch: continuous") as raised:
+        solve_waypoints(robot, [pose, pose], limits=wide)
+    assert raised.value.waypoint == 0 and time.perf_counter() - started < 30
+    solutions = solve_waypoints(robot, [pose, pose], limits=wide, branch="continuous")
+    assert all(s.residual <= 1e-9 for s in solutions)
+
+
+@given(st.lists(st.floats(-700.0, 700.0), min_size=6, max_size=6), st.lists(st.floats(100.0, 700.0), min_size=6,
+                                                                               max_size=6))
+def test_the_widest_turn_variant_is_the_brute_force_one(puma, angles, spans):
+    """A redundant arm's solution is centred from its turn with the widest margin to the ranges: chosen
+    joint by joint, it must equal the best of every variant."""
+    from planner.ik import IKSolution, _widest_variant
+    from planner.limits import JointLimits
+    half = np.deg2rad(spans) / 2
+    limits = JointLimits.create(6, lower=-half, upper=half)
+    q = np.deg2rad(angles)
+    variants = turn_variants(puma, q, limits)
+    if len(variants) == 0:
+        return
+    best = max(range_margin_deg(v, limits) for v in variants)
+    widest = _widest_variant(puma, IKSolution(q, 0.0, 0.0, 1), limits)
+    assert widest.margin_deg == pytest.approx(best, abs=1e-9)
+    assert range_margin_deg(widest.q, limits) == widest.margin_deg
+    assert any(np.allclose(widest.q, v) for v in variants)
 
 
 def test_continuous_rule_takes_the_turn_nearest_the_previous_configuration(monkeypatch):

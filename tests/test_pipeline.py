@@ -1,3 +1,4 @@
+import json
 from pathlib import Path
 
 import numpy as np
@@ -217,12 +218,14 @@ def test_a_hand_made_task_gets_the_task_file_errors(change):
         plan(task)
 
 
-def test_the_time_limit_keeps_the_best_timing_and_says_so():
+def test_the_time_limit_keeps_the_best_timing_says_so_and_saves_it(tmp_path):
     data = yaml.safe_load(PAPER_JOINT.read_text())
     data["optimizer"] = {"algorithm": "cuckoo", "nests": 50, "iterations": 100_000, "time_limit_s": 0.5}
     result = plan(parse_task(data, name="limited"))
-    optimizer = result.summary()["optimizer"]
+    result.save(tmp_path / "out")  # the run's settings, not its progress display, are recorded
+    optimizer = json.loads((tmp_path / "out" / "summary.json").read_text())["optimizer"]
     assert optimizer["stop_reason"] == "time limit of 0.5 s reached"
+    assert optimizer["settings"] == {"nests": 50, "iterations": 100_000}
     assert result.summary()["feasible"] and len(optimizer["best_per_iteration"]) < 100_000
 
 

@@ -83,8 +83,9 @@ def optimize(problem: TimingProblem, algorithm: str = "default", *, time_limit_s
         try:
             return optimizer(problem, **settings)
         except OutOfTime as stop:
+            requested = {key: value for key, value in settings.items() if key not in ("seed", "progress")}
             return stop.tracker.result(algorithm, f"time limit of {time_limit_s:g} s reached", settings.get("seed"),
-                                       settings)
+                                       requested)
 
 
 __all__ = ["OPTIMIZERS", "Evaluation", "OptimizationResult", "StartReport", "TimingProblem", "cuckoo_search",
