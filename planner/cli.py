@@ -32,9 +32,9 @@ def _interrupt(signum, frame):
 
 def _plan(args) -> int:
     from .outputs import output_folder
-    from .pipeline import plan
+    from .pipeline import OUTPUT_FILES, plan
     progress = TerminalProgress("optimizing", quiet=args.quiet)
-    with output_folder(args.out, force=args.force) as staging:
+    with output_folder(args.out, force=args.force, files=OUTPUT_FILES) as staging:
         result = plan(args.task, progress=progress)
         progress.note(f"writing the outputs to {args.out}")
         result.write(staging)

@@ -12,7 +12,8 @@ before any work is done:
   files published there, and nothing else. Any other folder is refused unless
   ``force`` is given: then the outputs are moved into it one file at a time
   (each move atomic), replacing files of the same names and keeping every
-  other file.
+  other file; a folder where an output file goes is refused (checked before
+  the work when the caller names its files, and before the first move).
 * Otherwise publishing is one atomic step: the files are written to a staging
   folder beside ``DIR`` (same parent, hence the same filesystem) and the
   staging folder is swapped with ``DIR`` in one ``renameat2(RENAME_EXCHANGE)``
@@ -39,7 +40,7 @@ import secrets
 import shutil
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator
+from typing import Iterable, Iterator
 
 from .errors import OutputError, shown
 from .interrupts import check as check_interrupted
@@ -216,8 +217,19 @@ def _publish_whole(staging: Path, folder: Path) -> None:
     shutil.rmtree(aside, ignore_errors=True)
 
 
+def _check_no_folder_in_the_way(folder: Path, names: Iterable[str]) -> None:
+    """Refuse to merge into ``folder`` where one of the file ``names`` is a folder there (a file cannot
+    replace it: the merge would stop half done)."""
+    blocking = sorted(name for name in names if (folder / name).is_dir() and not (folder / name).is_symlink())
+    if blocking:
+        raise OutputError(f"output folder {folder} holds a folder named {shown(', '.join(blocking))}, where the "
+                          f"planner writes a file; move it away, or give another output folder")
+
+
 def _publish_in_place(staging: Path, folder: Path, stale: set[str]) -> None:
-    """Move each file of ``staging`` into ``folder`` (each move atomic); remove ``stale`` planner files."""
+    """Move each file of ``staging`` into ``folder`` (each move atomic); remove ``stale`` planner files.
+    Checked first, so that it cannot stop half done."""
+    _check_no_folder_in_the_way(folder, (item.name for item in staging.iterdir()))
     for item in staging.iterdir():
         if item.name != MARKER:
             os.replace(item, folder / item.name)
@@ -233,8 +245,11 @@ def _write_marker(staging: Path) -> set[str]:
 
 
 @contextmanager
-def output_folder(path, *, force: bool = False) -> Iterator[Path]:
+def output_folder(path, *, force: bool = False, files: Iterable[str] = ()) -> Iterator[Path]:
     """Check and lock ``path``, yield an empty staging folder, and publish it when the block succeeds.
+
+    ``files``: the names the block will write, if known, so that a folder of one of these names in
+    a folder written into with ``force`` is refused before the work rather than at publishing.
 
     Enter it before the work that produces the outputs: a bad path fails before
     any computation, and the lock covers the whole run. On any exception
@@ -262,6 +277,8 @@ def output_folder(path, *, force: bool = False) -> Iterator[Path]:
         for stale in folder.parent.glob(f".{folder.name}.staging-*"):
             shutil.rmtree(stale, ignore_errors=True)
         folder, in_place = check_output_folder(folder, force=force)  # again, now that we hold the lock
+        if in_place and folder.exists():
+            _check_no_folder_in_the_way(folder, files)
         base = folder if in_place and folder.exists() else folder.parent
         staging = base / f".{folder.name}.staging-{secrets.token_hex(4)}"
         try:

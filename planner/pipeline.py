@@ -149,7 +149,7 @@ class PlanResult:
         Raises:
             OutputError: an unusable ``out_dir`` (empty, a file, someone else's files without ``force``).
         """
-        with output_folder(out_dir, force=force) as staging:
+        with output_folder(out_dir, force=force, files=OUTPUT_FILES) as staging:
             self.write(staging)
         return Path(out_dir)
 
@@ -178,6 +178,8 @@ class PlanResult:
                       joint_names=self.joint_names, waypoint_via=self.waypoint_via)
 
 
+#: The files ``PlanResult.write`` writes.
+OUTPUT_FILES = ("summary.json", "trajectory.csv", "coefficients.json", "profiles.png", "trajectory.rrd")
 #: Processes that write the outputs (``PlanResult.write``): the recording and coefficients, the figure,
 #: the CSV, each in its own (two cores write them in about the time of the slowest two).
 OUTPUT_WRITERS = 3

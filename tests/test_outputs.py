@@ -93,6 +93,32 @@ def test_folder_of_other_files_is_refused_unless_forced(tmp_path):
     assert leftovers(tmp_path) == []
 
 
+def tree(folder: Path) -> dict[str, str]:
+    return {str(p.relative_to(folder)): p.read_text() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def test_a_folder_where_an_output_file_goes_is_refused_and_nothing_is_merged(tmp_path, no_planning, task, capsys):
+    """--force merges file by file: a folder named like an output would stop the merge half done.
+    Refused before planning when the names are known, and at publishing, before any move, when not."""
+    out = tmp_path / "results"
+    (out / "trajectory.rrd").mkdir(parents=True)
+    (out / "trajectory.rrd" / "inner.txt").write_text("mine")
+    (out / "notes.txt").write_text("keep me")
+    before = tree(out)
+    assert main(["plan", str(task), "--out", str(out), "--force"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "holds a folder named 'trajectory.rrd'" in err
+    with pytest.raises(OutputError, match="holds a folder named 'trajectory.rrd'"):
+        write_outputs(out, {"summary.json": "new", "trajectory.rrd": "new"}, force=True)
+    assert tree(out) == before and leftovers(tmp_path) == []
+
+
+def test_a_plan_writes_exactly_its_declared_files(tmp_path, task):
+    from planner.pipeline import OUTPUT_FILES, plan
+    plan(task).save(tmp_path / "out")
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == sorted((MARKER, *OUTPUT_FILES))
+
+
 def test_planner_folder_is_replaced_whole_in_one_step(tmp_path):
     out = tmp_path / "out"
     write_outputs(out, {"a.txt": "1", "b.txt": "1"})
