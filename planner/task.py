@@ -21,13 +21,14 @@ Schema (version 1)::
                 weights: [K_t, K_j], ...algorithm settings (nests, iterations, pa, ...)}
 
 Every single number has the range given in ``RANGES`` (seeds are integers in [0, 2^63),
-``sample_rate_hz`` at most 100 kHz, every optimizer setting has its own range); a task
+``sample_rate_hz`` at most 100 kHz, every optimizer setting has its own range), and every
+number in a list the range of its kind (``ANGLE_DEG``, ``LIMIT_DEG``, ``POSITION_M``); a task
 file is UTF-8 (byte-order mark optional) or UTF-16/UTF-32 with a byte-order mark, at
 most ``yaml_input.MAX_FILE_BYTES`` long, nested at most ``MAX_NESTING`` deep, expanding to at most
 ``MAX_VALUES`` values, with no key twice in a mapping.
 
 Every error is a ``TaskError`` naming the key path, e.g.
-``limits.velocity_deg_s[2]: must be > 0, got -1``.
+``limits.velocity_deg_s[2]: must be >= 1e-12 and <= 1e+15, got -1``.
 """
 
 from __future__ import annotations
@@ -95,6 +96,13 @@ class Range:
 
 
 _COUNT = 10_000
+#: Every number in a list of angles (joint waypoints, ranges, hints, start, roll-pitch-yaw) [deg]:
+#: 277 turns either way. Caps like these catch unit mistakes and keep the arithmetic finite.
+ANGLE_DEG = Range(-1e5, 1e5)
+#: Every velocity, acceleration and jerk limit [deg/s^d] (1e-320 underflowed to 0, 1e308 overflowed).
+LIMIT_DEG = Range(1e-12, 1e15)
+#: Every tool position coordinate [m].
+POSITION_M = Range(-1e4, 1e4)
 #: Allowed values of every single number of a task, by key path; ``bool`` marks a true/false
 #: setting. The ``optimizer.*`` settings are the keyword arguments of the algorithms
 #: (``_optimizer_parameters``), each with its range here. Upper caps keep memory and run time
@@ -229,7 +237,7 @@ def _mapping(value, path: str, allowed) -> dict:
     return value
 
 
-def _number(value, path: str, *, positive: bool = False, integer: bool = False) -> float:
+def _number(value, path: str, *, integer: bool = False) -> float:
     """``value`` as a finite float (or int if ``integer``); booleans and strings are not numbers."""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise TaskError(path, f"must be a number, got {shown(value)}{_text_number_hint(value)}")
@@ -242,8 +250,6 @@ def _number(value, path: str, *, positive: bool = False, integer: bool = False) 
         raise TaskError(path, f"must be a finite number, got {value}")
     if integer and int(value) != value:
         raise TaskError(path, f"must be a whole number, got {value}")
-    if positive and value <= 0:
-        raise TaskError(path, f"must be > 0, got {shown(value)}")
     return int(value) if integer else value
 
 
@@ -271,15 +277,19 @@ def _ranged(value, path: str):
     return number
 
 
-def _vector(value, path: str, length: int | None = None, *, positive: bool = False) -> np.ndarray:
-    """A non-empty list of finite numbers (of ``length`` values if given)."""
+def _vector(value, path: str, rule: Range, length: int | None = None) -> np.ndarray:
+    """A non-empty list of finite numbers in ``rule`` (of ``length`` values if given)."""
     if not isinstance(value, (list, tuple)):
         raise TaskError(path, f"must be a list of numbers, got {shown(value)}")
     if length is not None and len(value) != length:
         raise TaskError(path, f"must have {length} values, got {len(value)}")
     if not value:
         raise TaskError(path, "must have at least 1 value, got an empty list")
-    return np.array([_number(v, f"{path}[{i}]", positive=positive) for i, v in enumerate(value)])
+    numbers = [_number(v, f"{path}[{i}]") for i, v in enumerate(value)]
+    for i, number in enumerate(numbers):
+        if number not in rule:
+            raise TaskError(f"{path}[{i}]", f"must be {rule}, got {shown(value[i])}")
+    return np.array(numbers)
 
 
 def _text(value, path: str) -> str:
@@ -309,8 +319,8 @@ def _choice(value, path: str, known, what: str) -> str:
 def _joint_waypoints(value, path: str) -> np.ndarray:
     if not isinstance(value, (list, tuple)) or len(value) < 2:
         raise TaskError(path, "must be a list of at least 2 joint vectors")
-    first = _vector(value[0], f"{path}[0]")
-    rows = [first] + [_vector(v, f"{path}[{i}]", len(first)) for i, v in enumerate(value[1:], start=1)]
+    first = _vector(value[0], f"{path}[0]", ANGLE_DEG)
+    rows = [first] + [_vector(v, f"{path}[{i}]", ANGLE_DEG, len(first)) for i, v in enumerate(value[1:], start=1)]
     return np.deg2rad(np.array(rows))
 
 
@@ -327,18 +337,18 @@ def _cartesian_waypoint(value, path: str) -> CartesianWaypoint:
     entry = _mapping(value, path, ("xyz_m", "rpy_deg", "quat_xyzw", "hint_deg"))
     if "xyz_m" not in entry:
         raise TaskError(f"{path}.xyz_m", "is required")
-    position = _vector(entry["xyz_m"], f"{path}.xyz_m", 3)
+    position = _vector(entry["xyz_m"], f"{path}.xyz_m", POSITION_M, 3)
     if ("rpy_deg" in entry) == ("quat_xyzw" in entry):
         raise TaskError(path, "needs exactly one of rpy_deg or quat_xyzw")
     if "rpy_deg" in entry:
-        quaternion = _quaternion_from_rpy(np.deg2rad(_vector(entry["rpy_deg"], f"{path}.rpy_deg", 3)))
+        quaternion = _quaternion_from_rpy(np.deg2rad(_vector(entry["rpy_deg"], f"{path}.rpy_deg", ANGLE_DEG, 3)))
     else:
-        quaternion = _vector(entry["quat_xyzw"], f"{path}.quat_xyzw", 4)
+        quaternion = _vector(entry["quat_xyzw"], f"{path}.quat_xyzw", Range(-math.inf), 4)
         norm = math.hypot(*quaternion)  # no overflow warning for huge entries: inf, refused below
         if not abs(norm - 1.0) <= 1e-3:
             raise TaskError(f"{path}.quat_xyzw", f"must be a unit quaternion, norm is {norm:.6g}")
         quaternion = quaternion / norm
-    hint = np.deg2rad(_vector(entry["hint_deg"], f"{path}.hint_deg")) if "hint_deg" in entry else None
+    hint = np.deg2rad(_vector(entry["hint_deg"], f"{path}.hint_deg", ANGLE_DEG)) if "hint_deg" in entry else None
     return CartesianWaypoint(position, quaternion, hint)
 
 
@@ -360,14 +370,14 @@ def _waypoints(value, path: str):
 
 def _limits(value, path: str) -> dict[str, np.ndarray]:
     section = _mapping(value, path, (*_LIMIT_KEYS, "position_deg"))
-    limits = {name: np.deg2rad(_vector(section[key], f"{path}.{key}", positive=True))
+    limits = {name: np.deg2rad(_vector(section[key], f"{path}.{key}", LIMIT_DEG))
               for key, name in _LIMIT_KEYS.items() if key in section}
     if "position_deg" in section:
         ranges = section["position_deg"]
         if not isinstance(ranges, (list, tuple)) or not ranges:
             raise TaskError(f"{path}.position_deg", f"must be a non-empty list of [lower, upper] pairs, "
                                                     f"got {shown(ranges)}")
-        pairs = np.array([_vector(r, f"{path}.position_deg[{i}]", 2) for i, r in enumerate(ranges)])
+        pairs = np.array([_vector(r, f"{path}.position_deg[{i}]", ANGLE_DEG, 2) for i, r in enumerate(ranges)])
         for i, (low, high) in enumerate(pairs):
             if low >= high:
                 raise TaskError(f"{path}.position_deg[{i}]", f"lower {low} must be below upper {high}")
@@ -396,7 +406,8 @@ def _robot(value, path: str, base: Path | None) -> RobotSpec:
 def _ik(value, path: str) -> IKOptions:
     section = _mapping(value, path, ("branch", "start_deg", "seed"))
     branch = _choice(section.get("branch", "optimal"), f"{path}.branch", BRANCH_RULES, "branch rule")
-    start = np.deg2rad(_vector(section["start_deg"], f"{path}.start_deg")) if "start_deg" in section else None
+    start = np.deg2rad(_vector(section["start_deg"], f"{path}.start_deg", ANGLE_DEG)) if "start_deg" in section \
+        else None
     seed = _ranged(section["seed"], f"{path}.seed") if "seed" in section else 0
     return IKOptions(branch, start, seed)
 

@@ -52,7 +52,7 @@ def test_bad_task_exits_2_with_one_line_and_no_outputs(tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["plan", str(task), "--out", str(out)]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "limits.velocity_deg_s[1]: must be > 0, got -5" in err
+    assert err.count("\n") == 1 and "limits.velocity_deg_s[1]: must be >= 1e-12 and <= 1e+15, got -5" in err
     assert not out.exists() and list(tmp_path.iterdir()) == [task]
 
 

@@ -57,8 +57,15 @@ def test_optional_sections_take_defaults():
     ({"waypoints__joints_deg": [[1, 2], [1, 2, 3]]}, r"^waypoints.joints_deg\[1\]: must have 2 values, got 3"),
     ({"waypoints__joints_deg": [[1, 2], [1, "x"]]}, r"^waypoints.joints_deg\[1\]\[1\]: must be a number, got 'x'"),
     ({"waypoints__joints_deg": [[1, 2], [1, float("nan")]]}, r"joints_deg\[1\]\[1\]: must be a finite number"),
-    ({"limits__velocity_deg_s": [100, 95, -1, 150, 130, 110]}, r"^limits.velocity_deg_s\[2\]: must be > 0, got -1"),
-    ({"limits__velocity_deg_s": [100, 95, 0, 150, 130, 110]}, r"^limits.velocity_deg_s\[2\]: must be > 0, got 0"),
+    ({"limits__velocity_deg_s": [100, 95, -1, 150, 130, 110]},
+     r"^limits.velocity_deg_s\[2\]: must be >= 1e-12 and <= 1e\+15, got -1"),
+    ({"limits__velocity_deg_s": [100, 95, 0, 150, 130, 110]},
+     r"^limits.velocity_deg_s\[2\]: must be >= 1e-12 and <= 1e\+15, got 0"),
+    ({"limits__acceleration_deg_s2": [1e-320, 95, 60, 150, 130, 110]},
+     r"^limits.acceleration_deg_s2\[0\]: must be >= 1e-12 and <= 1e\+15, got 1e-320$"),
+    ({"limits__jerk_deg_s3": [60, 66, 85, 70, 75, 1e308]}, r"^limits.jerk_deg_s3\[5\]: must be >= 1e-12 and <= 1e\+15"),
+    ({"waypoints__joints_deg": [[1, 2], [1, -2e5]]},
+     r"^waypoints.joints_deg\[1\]\[1\]: must be >= -100000 and <= 100000"),
     ({"limits__jerk_deg_s3": [60, 66]},
      r"^limits.jerk_deg_s3: must have 6 values \(one per joint, as the via-points have\), got 2"),
     ({"waypoints__joints_deg": [[1, 2, 3, 4, 5], [5, 4, 3, 2, 1]]},
@@ -286,9 +293,24 @@ def test_lists_and_mappings_are_not_names(where, value):
     ("optimizer.weights[0]", 1e300, r"must be >= 1e-06 and <= 1e\+06, got 1e\+300$"),
     ("optimizer.weights[1]", -1e-9, r"must be >= 0 and <= 1e\+06, got -1e-09$"),
     ("optimizer.bounds_s[1]", 1e9, r"must be > 0 and <= 86400, got 1000000000.0$"),
+    ("waypoints.cartesian[0].xyz_m[0]", 1e160, r"must be >= -10000 and <= 10000, got 1e\+160$"),
 ])
 def test_numbers_out_of_range_are_refused(where, value, message):
     assert_refused(lambda: parse_task(task_with(where, value), source=PAPER_CARTESIAN), message, where)
+
+
+@pytest.mark.parametrize("where, value, path", [
+    ("waypoints.cartesian[0].rpy_deg", [1e20, 0, 0], "waypoints.cartesian[0].rpy_deg[0]"),
+    ("waypoints.cartesian[0].hint_deg", [0, 0, -1e6, 0, 0, 0], "waypoints.cartesian[0].hint_deg[2]"),
+    ("limits.position_deg", [[-10, 10]] * 5 + [[-10, 1e308]], "limits.position_deg[5][1]"),
+    ("ik.start_deg", [1e6, 0, 0, 0, 0, 0], "ik.start_deg[0]"),
+])
+def test_angles_in_lists_are_within_277_turns(where, value, path):
+    """A roll of 1e20 deg means nothing (its cosine is noise) and a range of 1e308 deg overflows the figures."""
+    data = task_with(where, value)
+    if where.endswith("rpy_deg"):
+        data["waypoints"]["cartesian"][0].pop("quat_xyzw", None)
+    assert_refused(lambda: parse_task(data, source=PAPER_CARTESIAN), r"must be >= -100000 and <= 100000, got ", path)
 
 
 @pytest.mark.parametrize("where, value", [
