@@ -9,6 +9,7 @@ import numpy as np
 
 from .errors import InputError
 from .read_only import freeze_arrays
+from .validate import float_array
 
 
 @dataclass(frozen=True)
@@ -83,7 +84,7 @@ def default_joint_names(joints: int) -> tuple[str, ...]:
 def _limit_vector(name: str, value, joints: int, fill: float) -> np.ndarray:
     if value is None:
         return np.full(joints, fill)
-    array = np.asarray(value, dtype=float).reshape(-1)
+    array = float_array(f"{name} limits", value).reshape(-1)
     if array.shape != (joints,):
         raise InputError(f"{name} limits need {joints} values, got {array.size}")
     if np.isnan(array).any():
@@ -115,6 +116,8 @@ class JointLimits:
     def create(cls, joints: int, *, lower=None, upper=None, velocity=None, acceleration=None,
                jerk=None, names=None) -> "JointLimits":
         """Limits for ``joints`` joints; ``None`` means absent for every joint."""
+        if isinstance(joints, bool) or not isinstance(joints, (int, np.integer)) or joints < 1:
+            raise InputError(f"the joint count must be a whole number >= 1, got {joints!r}")
         return cls(_limit_vector("lower position", lower, joints, -np.inf),
                    _limit_vector("upper position", upper, joints, np.inf),
                    _limit_vector("velocity", velocity, joints, np.inf),
@@ -182,6 +185,9 @@ class JointLimits:
         Args:
             max_abs: (..., 3, J) maxima of |velocity|, |acceleration|, |jerk| [SI].
         """
+        max_abs = float_array("maxima", max_abs)
+        if max_abs.shape[-2:] != (3, self.joint_count):
+            raise InputError(f"maxima must have shape (..., 3, {self.joint_count}), got {max_abs.shape}")
         return max_abs / self.magnitudes
 
     def bound_sides(self, positions: np.ndarray) -> np.ndarray:
@@ -224,7 +230,15 @@ def time_scale_factor(ratios: np.ndarray) -> np.ndarray:
 
     Returns:
         (...,) scale factors (0 when nothing is limited).
+
+    Raises:
+        InputError: ratios that are not numbers >= 0 (NaN included) of shape (..., 3, J), J >= 1.
     """
+    ratios = float_array("ratios", ratios)
+    if ratios.ndim < 2 or ratios.shape[-2] != 3 or ratios.shape[-1] == 0:
+        raise InputError(f"ratios must have shape (..., 3, J) with J >= 1, got {ratios.shape}")
+    if not np.all(ratios >= 0):  # NaN fails too
+        raise InputError(f"ratios must be numbers >= 0, got {ratios[~(ratios >= 0)][0]}")
     roots = np.stack((ratios[..., 0, :], np.sqrt(ratios[..., 1, :]), np.cbrt(ratios[..., 2, :])))
     return roots.max(axis=(0, -1))
 

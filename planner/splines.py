@@ -91,8 +91,13 @@ class PiecewisePolynomial:
         """The ``order``-th time derivative at ``times`` [s], shaped (len(times), J).
 
         Times outside [0, T] are clamped to the ends.
+
+        Raises:
+            InputError: times that are not finite numbers, or an order that is not a whole number >= 0.
         """
-        times = np.clip(np.atleast_1d(np.asarray(times, dtype=float)), 0.0, self.total_time)
+        if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or order < 0:
+            raise InputError(f"the derivative order must be a whole number >= 0, got {order!r}")
+        times = np.clip(np.atleast_1d(finite_array("times", times, np.ndim(times))), 0.0, self.total_time)
         knots = self.knot_times
         segment = np.clip(np.searchsorted(knots, times, side="right") - 1, 0, self.segment_count - 1)
         tau = times - knots[segment]
@@ -209,8 +214,13 @@ class SplineFamily:
         via, h = self.check(via_points, durations)
         if h.ndim != 1:
             raise InputError(f"build takes one duration vector, got shape {h.shape}; use build_batch")
+        if states is not None and self.free_states:
+            states = finite_array("states", states, 3)
+            if states.shape != (*via.shape, 3):
+                raise InputError(f"states must have shape (n, J, 3) = {(*via.shape, 3)} (velocity, acceleration "
+                                 f"and jerk of every via-point), got {states.shape}")
         coefficients = (self.batch_coefficients(via, h[None]) if states is None
-                        else self.coefficients_from_states(via, h[None], np.asarray(states)[None]))[0]
+                        else self.coefficients_from_states(via, h[None], states[None]))[0]
         return PiecewisePolynomial(h, coefficients, self.via_knots(via.shape[0]))
 
     def build_batch(self, via_points, durations) -> np.ndarray:

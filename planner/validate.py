@@ -7,16 +7,25 @@ import numpy as np
 from .errors import InputError
 
 
+def float_array(name: str, value) -> np.ndarray:
+    """``value`` as a float array.
+
+    Raises:
+        InputError: naming ``name``, for text, ragged lists or anything else that is not numbers.
+    """
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{name} must be numeric ({exc})") from None
+
+
 def finite_array(name: str, value, ndim: int) -> np.ndarray:
     """Return ``value`` as a float array of ``ndim`` dimensions, all entries finite.
 
     Raises:
         InputError: naming ``name``, the shape found, or the first non-finite entry.
     """
-    try:
-        array = np.asarray(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"{name} must be numeric ({exc})") from None
+    array = float_array(name, value)
     if array.ndim != ndim:
         raise InputError(f"{name} must have {ndim} dimension(s), got shape {array.shape}")
     bad = np.argwhere(~np.isfinite(array))
@@ -28,7 +37,7 @@ def finite_array(name: str, value, ndim: int) -> np.ndarray:
 
 def positive_durations(name: str, value, count: int | None = None) -> np.ndarray:
     """Durations [s] as a (S,) or (B, S) array, finite and > 0, with S == ``count`` if given."""
-    array = np.asarray(value, dtype=float)
+    array = float_array(name, value)
     array = finite_array(name, array, array.ndim if array.ndim in (1, 2) else 1)
     if count is not None and array.shape[-1] != count:
         raise InputError(f"{name} must hold {count} segment durations, got {array.shape[-1]}")

@@ -158,6 +158,23 @@ def test_bad_limits(kwargs, message):
         JointLimits.create(3, **kwargs)
 
 
+@pytest.mark.parametrize("call, message", [
+    (lambda: JointLimits.create(2, velocity="fast"), "velocity limits must be numeric"),
+    (lambda: JointLimits.create(-1), "joint count must be a whole number >= 1, got -1"),
+    (lambda: JointLimits.create("3"), "joint count must be a whole number >= 1, got '3'"),
+    (lambda: JointLimits.create(2, velocity=[1, 1]).ratios(np.ones((3, 5))), r"shape \(\.\.\., 3, 2\)"),
+    (lambda: time_scale_factor(np.ones(3)), r"shape \(\.\.\., 3, J\)"),
+    (lambda: time_scale_factor(np.ones((3, 0))), r"shape \(\.\.\., 3, J\)"),
+    (lambda: time_scale_factor("abc"), "ratios must be numeric"),
+    (lambda: time_scale_factor(np.full((3, 2), np.nan)), "numbers >= 0, got nan"),
+    (lambda: time_scale_factor(-np.ones((3, 2))), "numbers >= 0, got -1"),
+])
+def test_bad_arguments_from_python_are_input_errors(call, message):
+    from planner import InputError
+    with pytest.raises(InputError, match=message):
+        call()
+
+
 @pytest.mark.parametrize("excess", [1e-6, 0.01, 0.5])
 def test_a_limit_exceeded_by_any_margin_is_a_violation(paper_via, excess):
     """Limits at the exact maxima hold; limits a fraction below them are each reported."""

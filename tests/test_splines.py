@@ -226,6 +226,24 @@ def test_bad_input_raises_clear_error(via, durations, message):
         get_family("hybrid").build(via, durations)
 
 
+@pytest.mark.parametrize("call, message", [
+    (lambda via: get_family("hybrid").build(via, "abcd"), "durations must be numeric"),
+    (lambda via: get_family("hybrid").build(via, ["a", "b", "c", "d"]), "durations must be numeric"),
+    (lambda via: get_family("hermite7").build(via, [1, 1], states="x"), "states must be numeric"),
+    (lambda via: get_family("hermite7").build(via, [1, 1], states=np.zeros((3, 2, 3))), r"shape \(n, J, 3\)"),
+    (lambda via: get_family("hermite7").build(via, [1, 1], states=np.zeros((2, 2))), "3 dimension"),
+    (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate("x"), "times must be numeric"),
+    (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate([0.1, np.nan]), "not a finite number"),
+    (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate([0.1], order=-1), "order must be a whole"),
+    (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate([0.1], order=1.5), "order must be a whole"),
+])
+def test_bad_arguments_from_python_are_input_errors(call, message):
+    """The API's own checks, not numpy's ValueError or broadcasting errors."""
+    via = np.deg2rad([[0.0, 0.0, 0.0], [30.0, -20.0, 10.0], [60.0, 10.0, -5.0]])
+    with pytest.raises(InputError, match=message):
+        call(via)
+
+
 def test_unknown_family():
     with pytest.raises(PlannerError, match="unknown spline family 'trig'.*cubic, hybrid, quintic"):
         get_family("trig")
