@@ -14,6 +14,7 @@ import logging
 import signal
 import sys
 import threading
+from contextlib import ExitStack
 from pathlib import Path
 
 from . import interrupts
@@ -79,26 +80,26 @@ def _replay(args) -> int:
                 raise OutputError(f"{option} {target} is the recording itself")
     recorded = read_recording(args.recording)
     target = args.export_csv
-    if target is not None:
-        with atomic_file(target) as staging:
-            write_trajectory_csv(staging, recorded.trajectory, recorded.rate_hz, recorded.joint_names)
+    total = recorded.trajectory.total_time
+    at = total / 2 if args.time is None else args.time
+    if args.screenshot is not None and not 0.0 <= at <= total:
+        raise InputError(f"--time {args.time:g} s is outside the recording's 0 to {total:.4f} s")
     code = 0
-    if args.check:
-        check = recorded.check()
-        print(f"{args.recording}: {len(recorded.joint_names)} joints, {len(recorded.times)} samples, "
-              f"T = {recorded.trajectory.total_time:.4f} s, largest ratio {check.largest_ratio:.4f}, "
-              f"samples vs trajectory {check.deviation:.2e} rad (allowed {check.tolerance:.1e}), "
-              f"{'limits hold' if not check.violations else 'VIOLATIONS: ' + '; '.join(check.violations)}")
-        code = 0 if check.passed else 1
-    if args.screenshot is not None:
-        from .screenshot import render_screenshot
-        total = recorded.trajectory.total_time
-        at = total / 2 if args.time is None else args.time
-        if not 0.0 <= at <= total:
-            raise InputError(f"--time {args.time:g} s is outside the recording's 0 to {total:.4f} s")
-        with atomic_file(args.screenshot) as staging:
-            render_screenshot(args.recording, staging, at)
-    elif not args.check and target is None:
+    with ExitStack() as files:  # the CSV and the screenshot are published together, or neither is
+        if target is not None:
+            staging = files.enter_context(atomic_file(target))
+            write_trajectory_csv(staging, recorded.trajectory, recorded.rate_hz, recorded.joint_names)
+        if args.check:
+            check = recorded.check()
+            print(f"{args.recording}: {len(recorded.joint_names)} joints, {len(recorded.times)} samples, "
+                  f"T = {recorded.trajectory.total_time:.4f} s, largest ratio {check.largest_ratio:.4f}, "
+                  f"samples vs trajectory {check.deviation:.2e} rad (allowed {check.tolerance:.1e}), "
+                  f"{'limits hold' if not check.violations else 'VIOLATIONS: ' + '; '.join(check.violations)}")
+            code = 0 if check.passed else 1
+        if args.screenshot is not None:
+            from .screenshot import render_screenshot
+            render_screenshot(args.recording, files.enter_context(atomic_file(args.screenshot)), at)
+    if args.screenshot is None and not args.check and target is None:
         open_in_viewer(args.recording, command=_command())
     return code
 

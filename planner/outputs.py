@@ -260,17 +260,13 @@ def output_folder(path, *, force: bool = False, files: Iterable[str] = ()) -> It
         OutputError: ``check_output_folder``'s errors, or another process writing the same folder.
     """
     folder, in_place = check_output_folder(path, force=force)
-    created = [ancestor for ancestor in folder.parents if not ancestor.exists()]  # deepest first
+    created = _missing_parents(folder)
     lock = _Lock(folder)
     try:
         folder.parent.mkdir(parents=True, exist_ok=True)
         lock.acquire()
     except OSError as exc:  # /proc, a name too long, a full disk: the path cannot take outputs
-        for ancestor in created:
-            try:
-                ancestor.rmdir()
-            except OSError:
-                break
+        _remove_empty(created)
         raise OutputError(f"output folder {folder}: cannot write there ({exc.strerror or exc})") from None
     staging, published = None, False
     try:
@@ -300,11 +296,21 @@ def output_folder(path, *, force: bool = False, files: Iterable[str] = ()) -> It
             shutil.rmtree(staging, ignore_errors=True)
         lock.release()
         if not published:  # parents made for this run go too: a failed run leaves no trace
-            for ancestor in created:
-                try:
-                    ancestor.rmdir()
-                except OSError:
-                    break
+            _remove_empty(created)
+
+
+def _missing_parents(path: Path) -> list[Path]:
+    """The ancestors of ``path`` that do not exist yet, deepest first (what a run will create)."""
+    return [ancestor for ancestor in path.parents if not ancestor.exists()]
+
+
+def _remove_empty(folders: list[Path]) -> None:
+    """Remove ``folders`` (deepest first) while they are empty: the parents a failed run made."""
+    for folder in folders:
+        try:
+            folder.rmdir()
+        except OSError:
+            break
 
 
 def check_output_file(path) -> Path:
@@ -333,7 +339,8 @@ def _check_file(target: Path) -> Path:
 
 @contextmanager
 def atomic_file(path) -> Iterator[Path]:
-    """Yield a temporary path beside ``path``; on success rename it to ``path``, else delete it.
+    """Yield a temporary path beside ``path``; on success rename it to ``path``, else delete it
+    (and the parent folders made for it).
 
     The file gets the permissions any new file of the user gets (0666 less the umask).
 
@@ -341,11 +348,18 @@ def atomic_file(path) -> Iterator[Path]:
         OutputError: as ``check_output_file``.
     """
     target = check_output_file(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    temporary = target.parent / f".{target.name}.{secrets.token_hex(4)}.tmp"
-    os.close(os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+    created = _missing_parents(target)
+    published = False
     try:
-        yield temporary
-        os.replace(temporary, target)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        temporary = target.parent / f".{target.name}.{secrets.token_hex(4)}.tmp"
+        os.close(os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+        try:
+            yield temporary
+            os.replace(temporary, target)
+            published = True
+        finally:
+            temporary.unlink(missing_ok=True)
     finally:
-        temporary.unlink(missing_ok=True)
+        if not published:
+            _remove_empty(created)

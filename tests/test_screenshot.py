@@ -78,6 +78,22 @@ def test_without_the_rerun_program_one_line_says_what_to_install(recording, tmp_
     assert leftovers(tmp_path) == []
 
 
+def test_a_failed_screenshot_leaves_neither_its_folders_nor_the_csv_asked_with_it(recording, tmp_path, monkeypatch,
+                                                                                   capsys):
+    """``--export-csv`` and ``--screenshot`` are published together: the CSV is not left behind when the
+    screenshot fails, and the folders made for either are removed."""
+    import planner.screenshot as screenshot
+    from planner.errors import ViewerError
+
+    def fail(*args, **kwargs):
+        raise ViewerError("no graphics adapter (a test)")
+    monkeypatch.setattr(screenshot, "render_screenshot", fail)
+    shot, table = tmp_path / "a" / "b" / "shot.png", tmp_path / "c" / "trajectory.csv"
+    assert main(["replay", str(recording), "--export-csv", str(table), "--screenshot", str(shot)]) == 2
+    assert capsys.readouterr().err.count("\n") == 1
+    assert leftovers(tmp_path) == []
+
+
 @pytest.mark.parametrize("arguments, said", [
     (["--screenshot", "{tmp}/shot.png", "--time", "99"], "outside the recording's 0 to"),
     (["--screenshot", "{tmp}/shot.png", "--time", "-0.5"], "outside the recording's 0 to"),
