@@ -159,7 +159,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="log what the stages do on stderr (IK choices, solver starts and rounds); -vv for more")
     commands = parser.add_subparsers(dest="command", required=True)
     plan = commands.add_parser("plan", help="plan a task file and write the outputs")
-    plan.add_argument("task", type=Path, help="YAML task file")
+    plan.add_argument("task", help="YAML task file")
     plan.add_argument("--out", default="out", help="output folder (default: out); created if absent, refused if "
                                                    "it holds files the planner did not write (see --force)")
     plan.add_argument("--force", action="store_true",
@@ -175,11 +175,11 @@ def build_parser() -> argparse.ArgumentParser:
     reproduce.set_defaults(run=_reproduce)
     replay = commands.add_parser("replay", help="open a trajectory.rrd in the Rerun viewer (needs a display), "
                                                 "or check/export/screenshot it without one")
-    replay.add_argument("recording", type=Path, help="a trajectory.rrd written by planner plan")
+    replay.add_argument("recording", help="a trajectory.rrd written by planner plan")
     replay.add_argument("--check", action="store_true",
                         help="read it back without a viewer and re-check it against its recorded limits")
-    replay.add_argument("--export-csv", type=Path, metavar="PATH", help="write its joint samples as CSV")
-    replay.add_argument("--screenshot", type=Path, metavar="OUT.png",
+    replay.add_argument("--export-csv", metavar="PATH", help="write its joint samples as CSV")
+    replay.add_argument("--screenshot", metavar="OUT.png",
                         help="render it with Rerun's headless viewer (no display needed, but a graphics adapter: "
                              "a GPU, or apt-get install mesa-vulkan-drivers) and write a PNG")
     from .screenshot import time_argument  # light: the standard library and planner.errors only

@@ -58,7 +58,7 @@ import pinocchio as pin
 
 from .analytic_ik import Solver, analytic_solver
 from .errors import IKError, InputError
-from .limits import JointLimits, rest_to_rest_time
+from .limits import JointLimits, in_degrees_apart, rest_to_rest_time
 from .read_only import freeze_arrays
 from .robot import Robot
 
@@ -421,6 +421,26 @@ def solve_waypoints(robot: Robot, poses: list[pin.SE3], *, hints: list[np.ndarra
     return _continuous_branch(robot, poses, hints, start, limits or robot.limits, rng, restarts, accept)
 
 
+def _unreached(robot: Robot, limits: JointLimits, index: int, attempts: int, best: IKSolution,
+               accept: float) -> IKError:
+    """The error for waypoint ``index`` without a solution in the ranges. Where the best solve reached
+    the pose outside them, the joint furthest outside its range (in its nearest turn) is named."""
+    said = f"waypoint {index}: pose not reached within the joint ranges after {attempts} attempt{'s' * (attempts > 1)}"
+    if best.residual > accept:
+        return IKError(f"{said}; best residual {best.position_error:.3g} m, "
+                       f"{np.rad2deg(best.orientation_error):.3g} deg", waypoint=index, residual=best.residual)
+    lower, upper = limits.lower, limits.upper
+    middle = np.where(np.isfinite(lower) & np.isfinite(upper), (lower + upper) / 2, 0.0)
+    q = np.where(robot.revolute, best.q + 2 * np.pi * np.round((middle - best.q) / (2 * np.pi)), best.q)
+    below, above = lower - q, q - upper
+    j = int(np.argmax(np.maximum(below, above)))
+    value, bound = in_degrees_apart(q[j], lower[j] if below[j] > above[j] else upper[j], 0)
+    side = "lower" if below[j] > above[j] else "upper"
+    return IKError(f"{said}: the pose is reachable, but outside the ranges: a solution puts joint "
+                   f"{robot.joint_names[j]} at {value}, beyond its {side} limit {bound}", waypoint=index,
+                   residual=best.residual)
+
+
 def _check_candidate_count(robot: Robot, limits: JointLimits, index: int, found: list[IKSolution]) -> None:
     """Refuse a waypoint whose solutions have more variants by 2 pi turns than ``MAX_CANDIDATES``."""
     count = sum(turn_variant_count(robot, solution.q, limits) for solution in found)
@@ -446,9 +466,7 @@ def _optimal_branches(robot, poses, hints, start, limits, rng, accept) -> list[I
             found, best, attempts = pose_solutions(robot, target, limits, rng, accept=accept)
         if not found:
             assert best is not None  # at least one attempt
-            raise IKError(f"waypoint {index}: pose not reached within the joint ranges after {attempts} "
-                          f"attempt{'s' * (attempts > 1)}; best residual {best.position_error:.3g} m, "
-                          f"{np.rad2deg(best.orientation_error):.3g} deg", waypoint=index, residual=best.residual)
+            raise _unreached(robot, limits, index, attempts, best, accept)
         if hint is None:
             _check_candidate_count(robot, limits, index, found)
         variants = [s.q[None] if hint is not None else turn_variants(robot, s.q, limits) for s in found]
@@ -507,9 +525,7 @@ def _continuous_branch(robot, poses, hints, start, limits, rng, restarts, accept
                     break
         if not found:
             assert best is not None  # at least one attempt
-            raise IKError(f"waypoint {index}: pose not reached within the joint ranges after {attempts} attempts; "
-                          f"best residual {best.position_error:.3g} m, {np.rad2deg(best.orientation_error):.3g} deg",
-                          waypoint=index, residual=best.residual)
+            raise _unreached(robot, limits, index, attempts, best, accept)
         distinct = [s for i, s in enumerate(found) if _distinct(robot, s.q, found[:i])]
         chosen = min(distinct, key=lambda s: np.linalg.norm(_nearest_turn(robot, s.q, previous) - previous))
         q = _nearest_turn(robot, chosen.q, previous) if hint is None else chosen.q

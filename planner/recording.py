@@ -506,6 +506,8 @@ def read_recording(path) -> RecordedPlan:
             an incomplete recording (no end marker, samples missing, duplicated or off
             the trajectory's time span).
     """
+    if isinstance(path, str) and not path.strip():
+        raise RecordingError("the recording's path is empty (an unset shell variable?); give a path")
     path = Path(path)
     if not path.is_file():
         what = ("a folder: give the .rrd file in it" if path.is_dir() else

@@ -392,7 +392,8 @@ def _robot(value, path: str, base: Path | None) -> RobotSpec:
     tool = _text(section["tool_frame"], f"{path}.tool_frame") if "tool_frame" in section else None
     if "name" in section:
         return RobotSpec(None, _text(section["name"], f"{path}.name"), tool)
-    urdf = Path(_text(section["urdf"], f"{path}.urdf"))
+    given = section["urdf"]  # a path object too, from Python (make_task)
+    urdf = Path(_text(os.fspath(given) if isinstance(given, os.PathLike) else given, f"{path}.urdf"))
     candidates = [urdf] if urdf.is_absolute() else [p for p in ((base / urdf) if base else None, urdf) if p]
     for candidate in candidates:
         try:
@@ -648,5 +649,7 @@ def load_task(path) -> Task:
     """Read and validate a YAML task file (see the module docstring for what a file may be)."""
     if not isinstance(path, (str, os.PathLike)) or not isinstance(os.fspath(path), str):
         raise TaskError("", f"a task file is given by its path (text or path-like), not {type(path).__name__}")
+    if not os.fspath(path).strip():
+        raise TaskError("", "the task file's path is empty (an unset shell variable?); give a path")
     path = Path(path)
     return parse_task(read_yaml(path, "task file"), name=path.stem[:MAX_NAME_CHARS], source=path)

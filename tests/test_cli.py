@@ -115,6 +115,30 @@ def test_usage_errors_are_one_line_and_exit_2(argv, capsys):
     assert info.value.code == 2 and err.count("\n") == 1 and err.startswith("error: planner")
 
 
+@pytest.mark.parametrize("argv, said", [
+    (["plan", ""], "the task file's path is empty"),
+    (["plan", "  "], "the task file's path is empty"),
+    (["replay", ""], "the recording's path is empty"),
+    (["replay", "{recording}", "--export-csv", ""], "output file is empty"),
+    (["replay", "{recording}", "--screenshot", " "], "output file is empty"),
+])
+def test_an_empty_path_is_named_as_empty_not_taken_for_the_current_folder(argv, said, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    recording = tmp_path / "t.rrd"
+    recording.write_bytes(b"")
+    assert main([a.format(recording=recording) for a in argv]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and said in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.rrd"]
+
+
+def test_a_python_task_takes_its_urdf_as_a_path_object():
+    from planner import make_task
+    task = make_task(robot={"urdf": ROOT / "robots" / "puma560.urdf", "tool_frame": "tool"},
+                     joints_deg=[[0] * 6, [10] * 6])
+    assert task.robot.urdf == (ROOT / "robots" / "puma560.urdf").resolve()
+
+
 def test_progress_is_plain_lines_when_not_on_a_terminal(tmp_path, capsys):
     """Not on a terminal: one line per stage and per optimizer run on stdout, no control characters,
     nothing on stderr; --quiet prints nothing at all."""

@@ -79,6 +79,19 @@ def test_unreachable_pose_names_waypoint_and_residual(puma):
     assert info.value.waypoint == 1 and info.value.residual > 1.0
 
 
+def test_a_reachable_pose_outside_narrow_ranges_names_a_joint_and_its_bound():
+    """Reachable, but not within ranges of +-1 deg: the message says so and names a joint beyond its bound
+    (it used to report a residual of 3e-16 m as if the pose were out of reach)."""
+    robot = Robot.from_example_robot_data("ur5", "tool0")
+    narrow = robot.limits.with_overrides(lower=np.full(6, np.deg2rad(-1.0)), upper=np.full(6, np.deg2rad(1.0)))
+    pose = robot.forward_kinematics(np.deg2rad([10.0, -60.0, 80.0, -100.0, -90.0, 30.0]))
+    said = (r"^waypoint 0: .*the pose is reachable, but outside the ranges: "
+            r"a solution puts joint \w+ at -?[\d.]+ deg, beyond its (upper|lower) limit -?1 deg$")
+    with pytest.raises(IKError, match=said) as raised:
+        solve_waypoints(robot, [pose, pose], limits=narrow)
+    assert raised.value.waypoint == 0 and raised.value.residual <= 1e-9
+
+
 def test_hint_of_wrong_length(puma):
     pose = puma.forward_kinematics(np.zeros(6))
     with pytest.raises(InputError, match="waypoint 0: hint has 3 values, robot has 6 joints"):
