@@ -73,8 +73,8 @@ def _two_rotations(axis1: np.ndarray, axis2: np.ndarray, u: np.ndarray, v: np.nd
     """Subproblem 2: the (theta_1, theta_2) with Rot(axis1, theta_1) Rot(axis2, theta_2) u = v, about axes
     through the origin that are not parallel: the intermediate vector z = Rot(axis2, theta_2) u =
     Rot(axis1, -theta_1) v = alpha w_1 + beta w_2 + gamma (w_1 x w_2) has w_1 . z = w_1 . v and
-    w_2 . z = w_2 . u, and |z| = |u| gives gamma = +-sqrt(...). No solution when |u| != |v| by more than
-    the rounding, or gamma^2 < 0 clearly (the target out of reach)."""
+    w_2 . z = w_2 . u, and |z| = |u| gives gamma = +-sqrt(...). No solution when gamma^2 < 0 clearly
+    (the target out of reach); |u| = |v| is assumed, not checked."""
     cosine = axis1 @ axis2
     normal = np.cross(axis1, axis2)
     alpha = (cosine * (axis2 @ u) - axis1 @ v) / (cosine**2 - 1)

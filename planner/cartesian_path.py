@@ -163,6 +163,7 @@ def follow_straight_lines(robot: Robot, poses: list[pin.SE3], waypoint_q: np.nda
         IKError: a segment that leaves the reachable workspace, or that no joint
             motion follows (the deviation does not shrink as poses are inserted), naming
             the segment, the fraction along it and the position.
+        TaskError: following the lines would need more than ``MAX_VIA_POINTS`` via-points.
     """
     # Per segment: the fractions u of its poses and their configurations, both ends included.
     fractions = [[0.0, 1.0] for _ in range(len(poses) - 1)]

@@ -1,7 +1,8 @@
 """Command line: ``planner plan | reproduce | replay``.
 
-Exit codes: 0 success, 2 bad input (any ``PlannerError`` about the input or
-an infeasible task), 1 anything else, 130 on Ctrl-C, 143 on SIGTERM. Errors
+Exit codes: 0 success, 2 any ``PlannerError`` (bad input, an infeasible task, an
+unusable output path, a recording or viewer that fails), 1 an internal error or a
+failed ``replay --check``, 130 on Ctrl-C, 143 on SIGTERM. Errors
 print one line on stderr. Output paths are checked before any work
 (``planner.outputs``); the heavy modules are imported only once the signal
 handlers are in place, so an interruption at any moment is one line too.

@@ -4,8 +4,9 @@ The timing NLP's starts and the outputs' figure hold Python's global interpreter
 lock while they run (CasADi's IPOPT calls, matplotlib), so threads do not run
 them side by side; processes do. A forked child inherits everything already
 built (a CasADi program, a trajectory), so only the items and the results
-cross a pipe, pickled. Where the platform cannot fork, or one core is all
-there is, the work runs in the calling process, in order: same results.
+cross a pipe, pickled. Where the platform cannot fork, or one worker is asked
+for (the default: the core count), the work runs in the calling process, in
+order: same results.
 
 A child's exception is raised again in the parent; an interruption of the
 parent (Ctrl-C, SIGTERM, a time limit, an error in its own share) ends the children at once.

@@ -2,7 +2,9 @@
 
 Every error carries a one-line message that names what was wrong (the
 waypoint, joint, key path, value and bound where they apply) and an
-``exit_code`` the CLI returns: 2 for bad input, 1 for anything else.
+``exit_code`` the CLI returns: 2 for every planner error (bad input, an infeasible
+task, an unusable output path, a recording or viewer that fails); 1 is left
+for internal errors.
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ J_e = Jlog6(T(q)^-1 T_target) J_local(q), each step is
 
 applied with ``pinocchio.integrate`` and clipped to the joint ranges. The
 damping vanishes as the error does, so the last steps are Newton steps and
-the error falls below 1e-9 (m and rad) in a few iterations.
+the error falls below ``TOLERANCE`` (1e-10 m and rad) in a few iterations.
 
 ``solve_waypoints`` chooses one solution per waypoint, by one of two rules:
 

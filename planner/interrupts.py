@@ -3,8 +3,8 @@
 IPOPT, through CasADi, catches the ``KeyboardInterrupt`` a signal handler
 raises inside its callbacks, prints a warning and carries on. So the command
 line's handlers also *record* the interruption here, and the long-running
-loops (after every IPOPT solve, every optimizer iteration, every pipeline
-stage, and just before outputs are published) call ``check``, which raises it
+loops (after every IPOPT solve, every optimizer iteration, and just before
+outputs are published) call ``check``, which raises it
 again. Once the outputs are published the work is done: ``finish`` makes later
 signals change nothing.
 """

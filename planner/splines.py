@@ -11,6 +11,8 @@ Families:
 * ``hybrid``: ``cubic`` with its first and last segment replaced by the
   7th-order Hermite polynomials of the paper's method, S = n + 1.
 * ``quintic``: interpolating quintic B-spline (Gasparetto & Zanotto), S = n - 1.
+* ``hermite7``: one 7th-order Hermite segment per chord, C3, with free via-point
+  velocity, acceleration and jerk (optimized by the NLP), S = n - 1.
 """
 
 from __future__ import annotations
@@ -423,8 +425,9 @@ def parabola_states(via_points: np.ndarray, durations: np.ndarray) -> np.ndarray
 
 class Hermite7Family(SplineFamily):
     """One 7th-order Hermite segment per chord (S = n - 1): position, velocity, acceleration and
-    jerk match at both ends of every segment, so the trajectory is C3 (jerk-continuous), with zero
-    velocity, acceleration and jerk at both ends.
+    jerk match at both ends of every segment, so the trajectory is C3 (jerk-continuous); velocity,
+    acceleration and jerk are zero at both ends under the fixed rule and from the NLP (states given
+    to ``build`` are used as they are).
 
     The interior via-point states are free (``free_states``): the sparse NLP optimizes them with the
     durations. Built from durations alone (the population optimizers, the starts) they follow a

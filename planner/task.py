@@ -202,7 +202,7 @@ class Task:
         limits: per-quantity overrides: ``velocity``, ``acceleration``, ``jerk`` (J,) [SI]
             and ``lower``, ``upper`` (J,) [rad]; absent keys are absent limits.
         optimizer: ``algorithm``, ``seed``, ``bounds`` [s] or None, ``objective``, ``weights``,
-            and ``settings`` passed to the algorithm.
+            ``time_limit`` [s] or None, and ``settings`` passed to the algorithm.
     """
 
     name: str

@@ -68,8 +68,8 @@ def optimize(problem: TimingProblem, algorithm: str = "default", *, time_limit_s
 
     Args:
         time_limit_s: wall time [s] after which the search stops and returns the best candidate
-            found so far (``stop_reason`` says so; every optimizer holds a feasible candidate from
-            its first evaluation on). None: no limit.
+            found so far (``stop_reason`` says so; every optimizer but ``cuckoo-paper``, which scores
+            raw penalised durations, holds a feasible candidate from its first evaluation on). None: no limit.
     """
     try:
         optimizer = OPTIMIZERS[algorithm]

@@ -172,7 +172,7 @@ class NLPOutcome:
     """What one NLP solve from one start returned (durations not yet repaired).
 
     Attributes:
-        durations: (S,) durations [s] of the last round.
+        durations: (S,) durations [s] of the last solved round (the start if none solved).
         iterations: IPOPT iterations over all rounds.
         rounds: solves made (one per round).
         status: IPOPT's return status of the last round.
@@ -525,7 +525,7 @@ def nlp_refine(problem: TimingProblem, starts: dict[str, np.ndarray], tracker: S
 
     Every start is first repaired (``TimingProblem.evaluate``: feasible and
     tight), so the tracker holds a feasible candidate even if a solve fails.
-    One ``TimingNLP``, scaled by the first start, serves them all; a
+    One ``TimingNLP``, scaled by the best repaired start, serves them all; a
     ``StartReport`` per start goes to ``tracker.starts``.
     """
     labels = list(starts)

@@ -20,7 +20,8 @@ The time-scaling lemma turns this into an unconstrained search over
 h = s x. For ``time`` the scale is s* (the smallest feasible); for
 ``time-jerk`` it is max(s*, s_opt), where s_opt = (5 K_j E / (K_t T))^(1/6)
 minimises K_t s T + K_j s^-5 E along the ray. With bounds the repaired
-durations are clipped to [h_min, h_max] and the scaling repeated a few times;
+durations are clipped to [max(h_min, h_floor), h_max] (h_floor: ``min_duration``)
+and the scaling repeated a few times;
 what is still infeasible then is penalised.
 
 Repeated via-points. Consecutive via-points equal in every joint (within
@@ -87,7 +88,7 @@ class TimingProblem:
     Args:
         via_points: (n, J) joint via-points [rad], n >= 2, not all equal.
         family: a ``SplineFamily`` or its name.
-        limits: ``JointLimits`` (SI); at least one magnitude limit or a lower bound is needed.
+        limits: ``JointLimits`` (SI); at least one magnitude limit, or duration ``bounds``, is needed.
         bounds: optional (h_min, h_max) [s] for every segment duration.
         min_duration: the shortest segment duration allowed [s] (>= 0), with or without bounds.
         objective: ``"time"`` or ``"time-jerk"``.

@@ -49,7 +49,7 @@ class OptimizationResult:
     """Outcome of one optimizer run on a ``TimingProblem``.
 
     Attributes:
-        algorithm: optimizer name (``cuckoo``, ``cuckoo-paper``, ``pso``, ``de``, ``slsqp``).
+        algorithm: optimizer name (``nlp``, ``cuckoo``, ``cuckoo-paper``, ``pso``, ``de``, ``slsqp``).
         durations: (S,) best segment durations [s].
         total_time: sum of the durations [s].
         objective: objective value of the best durations.
