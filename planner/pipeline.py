@@ -122,7 +122,7 @@ class PlanResult:
         if self.robot is None:
             return {}
         summary: dict[str, Any] = {"robot": {"name": self.robot.name, "urdf": str(self.robot.urdf_path),
-                             "tool_frame": self.robot.tool_frame}}
+                             "tool_frame": self.robot.tool_frame, "missing_meshes": list(self.robot.missing_meshes)}}
         if self.ik is not None:
             summary["ik"] = {"branch": self.task.ik.branch, "sequence_kept": self.branch_kept,
                              "timed_sequences_s": self.branch_times, "waypoints": [
@@ -301,6 +301,11 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
     if task.robot is not None:
         progress.note(f"loading robot {task.robot.name or task.robot.urdf}")
         robot = load_robot(task.robot.urdf, task.robot.name, task.robot.tool_frame)
+        if robot.missing_meshes:
+            count = len(robot.missing_meshes)
+            progress.note(f"{count} mesh{'es' * (count > 1)} the URDF names {'are' if count > 1 else 'is'} not found "
+                          f"(nothing is drawn for {'them' if count > 1 else 'it'}): "
+                          f"{', '.join(robot.missing_meshes[:3])}{', ...' * (count > 3)}")
         limits = robot_limits(robot, task)
         robot = replace(robot, limits=limits)  # IK searches the very ranges the timing enforces
     timings["setup"] = time.perf_counter() - start

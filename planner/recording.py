@@ -183,6 +183,9 @@ def _markdown_text(text: str) -> str:
 
 def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None:
     """Write ``result`` (a ``PlanResult``) as a Rerun recording at ``path`` (flushed and closed)."""
+    # The planner names missing meshes itself (summary.json, progress); Rerun's importer would warn
+    # about each on stderr as well. Read when rerun is first imported (the writer's own process).
+    os.environ.setdefault("RUST_LOG", "error")
     import rerun as rr
     import rerun.blueprint as rrb
 

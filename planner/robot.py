@@ -58,6 +58,7 @@ class Robot:
         package_dirs: folders that resolve the URDF's ``package://`` meshes.
         placeholder_velocity: joints whose URDF velocity limit is 0, which exporters write as a
             placeholder: their ``limits.velocity`` is absent (+inf) and a task must give one.
+        missing_meshes: meshes the URDF names that are not found (as named): nothing is drawn for them.
     """
 
     name: str
@@ -69,6 +70,7 @@ class Robot:
     urdf_path: Path
     package_dirs: tuple[Path, ...] = ()
     placeholder_velocity: tuple[str, ...] = ()
+    missing_meshes: tuple[str, ...] = ()
 
     @property
     def joint_names(self) -> list[str]:
@@ -121,7 +123,6 @@ class Robot:
         if failure is not None:
             raise RobotFileError(f"cannot load URDF {path}: {_first_line(str(failure))}{_detail(parser_log)}",
                                  path=path) from None
-        _check_meshes(path, package_dirs)
         extra = _read_limit_file(path.with_suffix(".limits.yaml"), model)
         return cls._build(model.name or path.stem, model, tool_frame, path, tuple(package_dirs), extra)
 
@@ -181,8 +182,9 @@ class Robot:
         upper = np.where(np.isfinite(reduced.upperPositionLimit), reduced.upperPositionLimit, np.inf)
         limits = JointLimits.create(reduced.nq, lower=lower, upper=upper, velocity=velocity, **extra_limits)
         placeholder = tuple(reduced.names[int(j) + 1] for j in np.flatnonzero(reduced.velocityLimit == 0))
+        missing = _check_meshes(Path(urdf_path), package_dirs)
         return cls(name, reduced, reduced.createData(), tool_frame, reduced.getFrameId(tool_frame), limits,
-                   Path(urdf_path), package_dirs, placeholder)
+                   Path(urdf_path), package_dirs, placeholder, missing)
 
 
 def package_roots(package_dirs) -> list[Path]:
@@ -208,9 +210,10 @@ def _mesh_file(filename: str, urdf_path: Path, package_dirs) -> Path | None:
     return path if path.is_absolute() else urdf_path.parent / path
 
 
-def _check_meshes(urdf_path: Path, package_dirs) -> None:
+def _check_meshes(urdf_path: Path, package_dirs) -> tuple[str, ...]:
     """Every mesh the URDF names that exists is a regular file of at most ``MAX_MESH_BYTES``, so that
-    drawing the robot cannot read a device (``/dev/zero``) or a pipe without end.
+    drawing the robot cannot read a device (``/dev/zero``) or a pipe without end. Returns the
+    meshes not found, as named (a robot is planned without them; the recording draws nothing there).
 
     Raises:
         RobotError: naming the link, the mesh and what it is.
@@ -220,7 +223,8 @@ def _check_meshes(urdf_path: Path, package_dirs) -> None:
     try:
         links = list(ElementTree.parse(urdf_path).getroot().iter("link"))
     except (OSError, ElementTree.ParseError):  # Pinocchio read it: a dialect ElementTree cannot; nothing to check
-        return
+        return ()
+    missing: list[str] = []
     for link in links:
         for mesh in link.iter("mesh"):
             named = mesh.get("filename") or ""
@@ -230,12 +234,14 @@ def _check_meshes(urdf_path: Path, package_dirs) -> None:
             except (OSError, ValueError):  # a dangling link, a NUL in the name: the viewer skips it too
                 continue
             if status is None:
+                missing.append(named)
                 continue
             where = f"URDF {urdf_path}: link {shown(link.get('name'), 60)} mesh {shown(named, 120)}"
             if not stat.S_ISREG(status.st_mode):
                 raise RobotFileError(f"{where} is not a regular file (a folder, device or pipe)", path=path)
             if status.st_size > MAX_MESH_BYTES:
                 raise RobotFileError(f"{where} is larger than {MAX_MESH_BYTES >> 20} MiB", path=path)
+    return tuple(dict.fromkeys(missing))
 
 
 def _first_line(text: str) -> str:

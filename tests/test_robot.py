@@ -265,8 +265,31 @@ def test_urdf_meshes_must_be_regular_files(tmp_path, mesh, what):
     (tmp_path / "link.stl").write_bytes(b"solid x\nendsolid x\n")
     urdf = tmp_path / "meshy.urdf"
     urdf.write_text(MESH_ARM.format(mesh=mesh))
-    if what is None:  # a regular file, or one the viewer will not find either (it warns)
-        assert Robot.from_urdf(urdf, "arm").dof == 1
+    if what is None:  # a regular file, or one the viewer will not find either: named as missing
+        robot = Robot.from_urdf(urdf, "arm")
+        assert robot.dof == 1 and robot.missing_meshes == (() if mesh == "link.stl" else (mesh,))
     else:
         with pytest.raises(RobotError, match=rf"URDF .*meshy.urdf: link 'arm' mesh '{mesh}' is {what}"):
             Robot.from_urdf(urdf, "arm")
+
+
+def test_a_missing_mesh_is_named_once_by_the_planner_and_rerun_stays_quiet(tmp_path, capfd):
+    """Planned and recorded without it: the progress says which, summary.json lists it, and Rerun's
+    importer prints nothing on stderr (it warned in a coloured log line of its own)."""
+    import json
+
+    import yaml
+
+    from planner.cli import main
+    urdf = tmp_path / "meshy.urdf"
+    urdf.write_text(MESH_ARM.format(mesh="nothere.stl"))
+    task = tmp_path / "task.yaml"
+    task.write_text(yaml.safe_dump({"version": 1, "robot": {"urdf": str(urdf), "tool_frame": "arm"},
+                                    "waypoints": {"joints_deg": [[0], [10]]},
+                                    "limits": {"acceleration_deg_s2": [10], "jerk_deg_s3": [10]}}))
+    assert main(["plan", str(task), "--out", str(tmp_path / "out")]) == 0
+    captured = capfd.readouterr()
+    assert captured.err == "" and "1 mesh the URDF names is not found (nothing is drawn for it): nothere.stl" \
+        in captured.out
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["robot"]["missing_meshes"] == ["nothere.stl"]
