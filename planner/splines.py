@@ -221,8 +221,12 @@ class SplineFamily:
             if states.shape != (*via.shape, 3):
                 raise InputError(f"states must have shape (n, J, 3) = {(*via.shape, 3)} (velocity, acceleration "
                                  f"and jerk of every via-point), got {states.shape}")
-        coefficients = (self.batch_coefficients(via, h[None]) if states is None
-                        else self.coefficients_from_states(via, h[None], states[None]))[0]
+        with np.errstate(all="ignore"):  # extreme durations overflow: refused just below, by name
+            coefficients = (self.batch_coefficients(via, h[None]) if states is None
+                            else self.coefficients_from_states(via, h[None], states[None]))[0]
+        if not np.all(np.isfinite(coefficients)):
+            raise InputError(f"durations from {h.min():.3g} to {h.max():.3g} s overflow the {self.name} spline's "
+                             f"coefficients (not finite numbers); give durations of a physical size")
         return PiecewisePolynomial(h, coefficients, self.via_knots(via.shape[0]))
 
     def build_batch(self, via_points, durations) -> np.ndarray:

@@ -228,6 +228,8 @@ def test_bad_input_raises_clear_error(via, durations, message):
 
 @pytest.mark.parametrize("call, message", [
     (lambda via: get_family("hybrid").build(via, "abcd"), "durations must be numeric"),
+    (lambda via: get_family("hybrid").build(via, [1e-300] * 4), "durations from 1e-300 to 1e-300 s overflow"),
+    (lambda via: get_family("cubic").build(via, [1e300] * 4), "durations from 1e.300 to 1e.300 s overflow"),
     (lambda via: get_family("hybrid").build(via, ["a", "b", "c", "d"]), "durations must be numeric"),
     (lambda via: get_family("hermite7").build(via, [1, 1], states="x"), "states must be numeric"),
     (lambda via: get_family("hermite7").build(via, [1, 1], states=np.zeros((3, 2, 3))), r"shape \(n, J, 3\)"),
