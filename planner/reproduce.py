@@ -45,9 +45,9 @@ class Run:
     result: OptimizationResult
 
 
-#: The families the comparison runs (``hermite7``, whose via-point states only the NLP optimizes,
-#: is not in it yet).
-COMPARED_FAMILIES = ("cubic", "hybrid", "quintic")
+#: The families the comparison runs. ``hermite7``'s via-point states are optimized by the NLP stages
+#: (ours, and the sparse NLP); the population optimizers use its fixed rule (``parabola_states``).
+COMPARED_FAMILIES = ("cubic", "hybrid", "quintic", "hermite7")
 
 
 def run_all(*, quick: bool = False, seed: int = 0, families=COMPARED_FAMILIES,
@@ -114,6 +114,7 @@ def write_report(runs: list[Run], folder: Path) -> None:
         key = (r.family, r.bounds)
         if r.result.feasible and (key not in best_of or r.result.total_time < best_of[key].result.total_time):
             best_of[key] = r
+    lines += _families_block(best_of)
     lines += ["## Table IV: durations of the hybrid spline", ""]
     header = ["", *[f"h{k + 1}" for k in range(9)], "total"]
     table_rows = [["paper (CS, bounds [3, 5])", *paper.DURATIONS_S, float(paper.DURATIONS_S.sum())]]
@@ -145,7 +146,7 @@ def write_report(runs: list[Run], folder: Path) -> None:
                 f"Ours, hybrid, bounds {_bounds_label(bounds)}: T = {r.result.total_time:.4f} s",
                 kinematic_figures(get_family("hybrid").build(via, r.result.durations)), False)
             lines += [block, ""]
-    figure4_lines, columns = figure4_columns(best_of.get(("hybrid", None)))
+    figure4_lines, columns = figure4_columns(best_of.get(("hybrid", None)), best_of.get(("hermite7", None)))
     lines += figure4_lines
     (folder / "reproduction.md").write_text("\n".join(lines) + "\n")
     write_json(folder / "reproduction.json", {
@@ -171,8 +172,9 @@ FIGURE_FILE = "figure4.png"
 #: What the figure shows, printed under its title.
 FIGURE_NOTE = ("The paper's Figure 4 is a plot without numbers. Left: the hybrid spline through Table II with "
                "Table IV's durations, recomputed exactly; circles and dash-dotted lines are the numbers the paper "
-               "gives\nfor it (Table II via-points, Table V maxima). Right: ours, same spline and limits, "
-               "time-optimal without duration bounds. Dashed: Table III limits. Each row shares one scale.")
+               "gives\nfor it (Table II via-points, Table V maxima). Then ours: the same spline and limits, "
+               "time-optimal without duration bounds, and the jerk-continuous hermite7. Dashed: Table III limits. "
+               "Each row shares one scale.")
 
 
 def speed_lower_bound_deg(via_deg: np.ndarray, via_times: np.ndarray) -> np.ndarray:
@@ -181,9 +183,32 @@ def speed_lower_bound_deg(via_deg: np.ndarray, via_times: np.ndarray) -> np.ndar
     return (np.abs(np.diff(via_deg, axis=0)) / np.diff(via_times)[:, None]).max(axis=0)
 
 
-def figure4_columns(ours: Run | None) -> tuple[list[str], list[ProfileColumn]]:
+def _families_block(best_of: dict) -> list[str]:
+    """The best feasible total time of each family, with and without the paper's bounds, against ``hybrid``."""
+    families = list(dict.fromkeys(family for family, _ in best_of))
+    rows = []
+    for family in families:
+        row = [family]
+        for bounds in (paper.BOUNDS_S, None):
+            run, hybrid = best_of.get((family, bounds)), best_of.get(("hybrid", bounds))
+            if run is None:
+                row += ["-", "-"]
+                continue
+            row.append(f"{run.result.total_time:.4f}")
+            row.append(f"{100 * (run.result.total_time / hybrid.result.total_time - 1):+.2f} %" if hybrid else "-")
+        rows.append(row)
+    header = ["family", "bounds [3, 5] s: best total time [s]", "against hybrid", "no bounds: best total time [s]",
+              "against hybrid"]
+    return ["## Families compared (the best feasible run of each)", "",
+            "`hermite7` is jerk-continuous, and the NLP stages choose its via-point velocities, accelerations",
+            "and jerks with the durations; the other families fix them from the durations.", "",
+            markdown_table(header, rows), ""]
+
+
+def figure4_columns(ours: Run | None, jerk_continuous: Run | None = None) -> tuple[list[str], list[ProfileColumn]]:
     """The report's Figure 4 section and the figure's columns: the paper's Table IV durations with
-    its Table II and Table V numbers, then ``ours`` (the best hybrid run without bounds) if any."""
+    its Table II and Table V numbers, then ``ours`` (the best hybrid run without bounds) if any, then
+    ``jerk_continuous`` (the best hermite7 run without bounds) if any."""
     via = np.deg2rad(paper.VIA_POINTS_DEG)
     hybrid = get_family("hybrid")
     theirs = hybrid.build(via, paper.DURATIONS_S)
@@ -203,8 +228,15 @@ def figure4_columns(ours: Run | None) -> tuple[list[str], list[ProfileColumn]]:
     trajectory = hybrid.build(via, ours.result.durations)
     columns.append(ProfileColumn(trajectory, f"Ours: {OPTIMIZER_LABELS[ours.algorithm]}, no bounds, "
                                              f"T = {trajectory.total_time:.3f} s"))
-    lines += ["The right column is ours: the same spline and limits, durations from",
+    lines += ["The middle column is ours: the same spline and limits, durations from",
               f"{OPTIMIZER_LABELS[ours.algorithm]} without bounds (T = {trajectory.total_time:.4f} s against the",
-              f"paper's {theirs.total_time:.4f} s).",
-              "Dashed lines are the Table III limits; each row of the figure has one vertical scale.", ""]
+              f"paper's {theirs.total_time:.4f} s)."]
+    if jerk_continuous is not None:
+        smooth = get_family("hermite7").build(via, jerk_continuous.result.durations,
+                                              jerk_continuous.result.knot_states)
+        columns.append(ProfileColumn(smooth, f"Ours, hermite7 (C3): {OPTIMIZER_LABELS[jerk_continuous.algorithm]}, "
+                                             f"no bounds, T = {smooth.total_time:.3f} s"))
+        lines += [f"The right column is the jerk-continuous `hermite7` through the same via-points (T = "
+                  f"{smooth.total_time:.4f} s): its jerk has no jumps."]
+    lines += ["Dashed lines are the Table III limits; each row of the figure has one vertical scale.", ""]
     return lines, columns

@@ -16,7 +16,7 @@ FOREIGN = ["TIMING-SPEC", "PAPER-DATA", "seed-paper", "DESIGN.md", "shared/", ".
 
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):
-    """The quick reproduction of the hybrid family, written once: (folder, markdown, figure columns)."""
+    """The quick reproduction of the hybrid and hermite7 families, written once: (folder, markdown, figure columns)."""
     folder = tmp_path_factory.mktemp("reproduce")
     drawn = []
     original = reproduce.plot_profile_columns
@@ -25,7 +25,7 @@ def report(tmp_path_factory):
             drawn.append((columns, kwargs))
             return original(columns, *args, **kwargs)
         patch.setattr(reproduce, "plot_profile_columns", spy)
-        reproduce.write_report(reproduce.run_all(quick=True, families=("hybrid",)), folder)
+        reproduce.write_report(reproduce.run_all(quick=True, families=("hybrid", "hermite7")), folder)
     return folder, (folder / "reproduction.md").read_text(), drawn
 
 
@@ -54,7 +54,7 @@ def test_figure_4_shows_the_paper_beside_ours(report):
     assert (folder / reproduce.FIGURE_FILE).stat().st_size > 10_000
     assert f"`{reproduce.FIGURE_FILE}`" in text
     (columns, kwargs), = drawn
-    theirs, ours = columns
+    theirs, ours, smooth = columns
     np.testing.assert_array_equal(theirs.trajectory.durations, paper.DURATIONS_S)
     times, positions = theirs.points
     np.testing.assert_allclose(times, np.concatenate(([0.0], np.cumsum(paper.DURATIONS_S)))[[0, 2, 3, 4, 5, 6, 7, 9]])
@@ -63,7 +63,21 @@ def test_figure_4_shows_the_paper_beside_ours(report):
     np.testing.assert_allclose(np.rad2deg(theirs.levels), reported)
     assert ours.points is None and ours.levels is None and ours.trajectory.total_time < 17.5
     assert "Table II" in kwargs["points_label"] and "Table V" in kwargs["levels_label"]
-    assert "Left" in kwargs["note"] and "Right: ours" in kwargs["note"]
+    assert "Left" in kwargs["note"] and "Then ours" in kwargs["note"] and "hermite7" in kwargs["note"]
+    # The right column is jerk-continuous (its jerk agrees from both sides of every interior knot), and faster.
+    trajectory = smooth.trajectory
+    knots = trajectory.knot_times[1:-1]
+    left, right = trajectory.evaluate(knots - 1e-9, order=3), trajectory.evaluate(knots + 1e-9, order=3)
+    np.testing.assert_allclose(left, right, atol=1e-5)
+    assert smooth.trajectory.total_time < ours.trajectory.total_time
+
+
+def test_the_families_table_puts_hermite7_below_hybrid(report):
+    _, text, _ = report
+    table = text.split("## Families compared")[1].split("##")[0]
+    row = next(line for line in table.splitlines() if line.startswith("| hermite7 |"))
+    cells = [cell.strip() for cell in row.strip("|").split("|")]
+    assert cells[4].startswith("-") and cells[4].endswith("%"), row  # no bounds: faster than hybrid
 
 
 def test_the_speed_bound_shows_table_v_unreachable():
