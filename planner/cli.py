@@ -55,9 +55,9 @@ def _plan(args) -> int:
 
 def _reproduce(args) -> int:
     from .outputs import output_folder
-    from .reproduce import run_all, write_report
+    from .reproduce import REPORT_FILES, run_all, write_report
     progress = TerminalProgress("reproduce", quiet=args.quiet)
-    with output_folder(args.out, force=args.force) as staging:
+    with output_folder(args.out, force=args.force, files=REPORT_FILES) as staging:
         runs = run_all(quick=args.quick, seed=args.seed, progress=progress)
         write_report(runs, staging)
     interrupts.finish()

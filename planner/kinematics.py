@@ -19,6 +19,7 @@ from math import comb
 
 import numpy as np
 
+from .errors import InputError
 from .limits import FEASIBILITY_TOLERANCE, LIMITED, JointLimits, in_degrees, time_scale_factor
 from .read_only import freeze_arrays
 from .splines import PiecewisePolynomial, derivative_coefficients, polyval, powers
@@ -409,7 +410,13 @@ class KinematicFigures:
 
 
 def kinematic_figures(trajectory: PiecewisePolynomial) -> KinematicFigures:
-    """All exact figures of one trajectory."""
+    """All exact figures of one trajectory.
+
+    Raises:
+        InputError: ``trajectory`` is not a ``PiecewisePolynomial``.
+    """
+    if not isinstance(trajectory, PiecewisePolynomial):
+        raise InputError(f"kinematic_figures takes a PiecewisePolynomial, not {type(trajectory).__name__}")
     c = trajectory.coefficients[None]
     h = trajectory.durations[None]
     total = trajectory.total_time

@@ -270,7 +270,8 @@ def output_folder(path, *, force: bool = False, files: Iterable[str] = ()) -> It
         raise OutputError(f"output folder {folder}: cannot write there ({exc.strerror or exc})") from None
     staging, published = None, False
     try:
-        for stale in folder.parent.glob(f".{folder.name}.staging-*"):
+        stale_places = [folder.parent] + ([folder] if folder.is_dir() else [])  # beside it, or inside (--force)
+        for stale in (found for place in stale_places for found in place.glob(f".{folder.name}.staging-*")):
             shutil.rmtree(stale, ignore_errors=True)
         folder, in_place = check_output_folder(folder, force=force)  # again, now that we hold the lock
         if in_place and folder.exists():
@@ -284,6 +285,11 @@ def output_folder(path, *, force: bool = False, files: Iterable[str] = ()) -> It
             raise OutputError(f"output folder {folder}: cannot write there ({exc.strerror or exc})") from None
         yield staging
         check_interrupted()  # an interruption a library swallowed must not publish half a run
+        # Again: while this run worked, another may have written into DIR (its own --out DIR/sub, say);
+        # swapping DIR out whole would delete that. Refused now, or (--force) merged file by file.
+        if not in_place and check_output_folder(folder, force=force)[1]:
+            in_place = True
+            _check_no_folder_in_the_way(folder, (item.name for item in staging.iterdir()))
         written = _write_marker(staging)
         if in_place:
             folder.mkdir(exist_ok=True)

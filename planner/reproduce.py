@@ -169,6 +169,8 @@ def write_report(runs: list[Run], folder: Path) -> None:
 
 #: The Figure 4 equivalent, in the output folder.
 FIGURE_FILE = "figure4.png"
+#: The files ``write_report`` writes.
+REPORT_FILES = ("reproduction.md", "reproduction.json", FIGURE_FILE)
 #: What the figure shows, printed under its title.
 FIGURE_NOTE = ("The paper's Figure 4 is a plot without numbers. Left: the hybrid spline through Table II with "
                "Table IV's durations, recomputed exactly; circles and dash-dotted lines are the numbers the paper "

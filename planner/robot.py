@@ -21,6 +21,7 @@ import numpy as np
 import pinocchio as pin
 
 from .errors import (
+    InputError,
     RobotError,
     RobotFileError,
     TaskError,
@@ -95,8 +96,9 @@ class Robot:
 
     def frame_jacobian(self, q) -> np.ndarray:
         """(6, nv) Jacobian of the tool frame in its LOCAL frame (linear first)."""
-        return pin.computeFrameJacobian(self.model, self.data, np.asarray(q, dtype=float), self.tool_frame_id,
-                                        pin.ReferenceFrame.LOCAL)
+        jacobian = pin.computeFrameJacobian(self.model, self.data, np.asarray(q, dtype=float), self.tool_frame_id,
+                                            pin.ReferenceFrame.LOCAL)
+        return np.reshape(jacobian, (6, self.model.nv))  # one joint: the binding returns a (6,) vector
 
     # ------------------------------------------------------------------ construction
 
@@ -106,6 +108,9 @@ class Robot:
 
         The URDF parser's own log lines are kept off stderr; the first of them goes into the error.
         """
+        if not isinstance(path, (str, os.PathLike)):
+            raise RobotFileError(f"a URDF is given by its path (text or path-like), not {type(path).__name__}",
+                                 path=None)
         path = Path(path)
         if not path.is_file():  # a device such as /dev/zero would be read without end
             raise RobotFileError(f"cannot load URDF {path}: not an existing regular file", path=path)
@@ -159,10 +164,14 @@ class Robot:
         if not isinstance(tool_frame, str) or not model.existFrame(tool_frame):
             raise UnknownFrameError(f"robot {shown(name)} has no frame {shown(tool_frame)}; frames: "
                                     f"{', '.join(frame_names)}", frame=tool_frame, frames=tuple(frame_names))
-        parent = model.frames[model.getFrameId(tool_frame)].parentJoint
+        parent = model.frames[_frame_id(model, tool_frame)].parentJoint
         chain = set(model.supports[parent])
         locked = [j for j in range(1, model.njoints) if j not in chain]
-        reduced = pin.buildReducedModel(model, locked, pin.neutral(model)) if locked else model
+        try:
+            reduced = pin.buildReducedModel(model, locked, pin.neutral(model)) if locked else model
+        except ValueError as exc:  # names Pinocchio cannot tell apart, a link with two parent joints
+            raise RobotFileError(f"cannot build the chain of robot {shown(name)} to frame {shown(tool_frame)}: "
+                                 f"{_first_line(str(exc))}", path=Path(urdf_path)) from None
         for j in range(1, reduced.njoints):
             kind = reduced.joints[j].shortname()
             if kind in _PRISMATIC:
@@ -180,11 +189,23 @@ class Robot:
         velocity = np.where(reduced.velocityLimit > 0, reduced.velocityLimit, np.inf)
         lower = np.where(np.isfinite(reduced.lowerPositionLimit), reduced.lowerPositionLimit, -np.inf)
         upper = np.where(np.isfinite(reduced.upperPositionLimit), reduced.upperPositionLimit, np.inf)
-        limits = JointLimits.create(reduced.nq, lower=lower, upper=upper, velocity=velocity, **extra_limits)
+        try:
+            limits = JointLimits.create(reduced.nq, lower=lower, upper=upper, velocity=velocity,
+                                        names=reduced.names[1:], **extra_limits)
+        except InputError as exc:  # an empty range, a negative limit: the robot's files are at fault
+            raise RobotFileError(f"robot {shown(name)} ({urdf_path}): {exc}", path=Path(urdf_path)) from None
         placeholder = tuple(reduced.names[int(j) + 1] for j in np.flatnonzero(reduced.velocityLimit == 0))
         missing = _check_meshes(Path(urdf_path), package_dirs)
-        return cls(name, reduced, reduced.createData(), tool_frame, reduced.getFrameId(tool_frame), limits,
+        return cls(name, reduced, reduced.createData(), tool_frame, _frame_id(reduced, tool_frame), limits,
                    Path(urdf_path), package_dirs, placeholder, missing)
+
+
+def _frame_id(model: pin.Model, name: str) -> int:
+    """The index of frame ``name``; where a joint and a link share it (a fixed joint named as its
+    child link, common in URDFs), the link's (body) frame."""
+    found = [i for i, frame in enumerate(model.frames) if frame.name == name]
+    bodies = [i for i in found if model.frames[i].type == pin.FrameType.BODY]
+    return (bodies or found)[0]
 
 
 def package_roots(package_dirs) -> list[Path]:

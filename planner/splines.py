@@ -112,7 +112,8 @@ class PiecewisePolynomial:
         Raises:
             InputError: a rate that is not > 0, or more than ``MAX_SAMPLES`` samples.
         """
-        if not np.isfinite(rate_hz) or rate_hz <= 0:
+        if isinstance(rate_hz, bool) or not isinstance(rate_hz, (int, float, np.integer, np.floating)) \
+                or not np.isfinite(rate_hz) or rate_hz <= 0:
             raise InputError(f"sample rate must be > 0 Hz, got {rate_hz}")
         if self.total_time * rate_hz >= MAX_SAMPLES:
             raise InputError(f"sampling the {self.total_time:.6g} s trajectory at {rate_hz:g} Hz makes "

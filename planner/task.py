@@ -298,6 +298,11 @@ def _text(value, path: str) -> str:
         raise TaskError(path, f"must be a non-empty string, got {shown(value)}")
     if _CONTROL.search(value):
         raise TaskError(path, f"must not contain control characters, got {shown(value)}")
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError:  # a lone surrogate (a YAML escape such as "\ud800"): no file or figure can hold it
+        raise TaskError(path, f"must be valid Unicode text, got {shown(value.encode('utf-8', 'replace').decode())}") \
+            from None
     return value
 
 

@@ -15,7 +15,7 @@ def float_array(name: str, value) -> np.ndarray:
     """
     try:
         return np.asarray(value, dtype=float)
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError, OverflowError) as exc:  # OverflowError: an integer beyond any float
         raise InputError(f"{name} must be numeric ({exc})") from None
 
 

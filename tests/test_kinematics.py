@@ -168,6 +168,7 @@ def test_bad_limits(kwargs, message):
     (lambda: time_scale_factor("abc"), "ratios must be numeric"),
     (lambda: time_scale_factor(np.full((3, 2), np.nan)), "numbers >= 0, got nan"),
     (lambda: time_scale_factor(-np.ones((3, 2))), "numbers >= 0, got -1"),
+    (lambda: kinematic_figures("x"), "takes a PiecewisePolynomial, not str"),
 ])
 def test_bad_arguments_from_python_are_input_errors(call, message):
     from planner import InputError

@@ -113,6 +113,32 @@ def test_a_folder_where_an_output_file_goes_is_refused_and_nothing_is_merged(tmp
     assert tree(out) == before and leftovers(tmp_path) == []
 
 
+def test_a_run_into_the_folder_of_another_runs_output_does_not_delete_it(tmp_path):
+    """Run A writes DIR; while it works, run B publishes DIR/sub. A must not swap DIR out whole (B's
+    outputs would go with it): refused, or merged file by file with --force."""
+    out = tmp_path / "o"
+    write_outputs(out, {"a.txt": "old"})
+    with pytest.raises(OutputError, match="did not write \\('sub'\\)"):
+        with output_folder(out) as staging:
+            (staging / "a.txt").write_text("new")
+            write_outputs(out / "sub", {"b.txt": "B's"})
+    assert (out / "sub" / "b.txt").read_text() == "B's" and (out / "a.txt").read_text() == "old"
+    with output_folder(out, force=True) as staging:
+        (staging / "a.txt").write_text("new")
+        write_outputs(out / "sub2", {"c.txt": "C's"})
+    assert (out / "sub2" / "c.txt").read_text() == "C's" and (out / "a.txt").read_text() == "new"
+    assert leftovers(tmp_path) == [] and leftovers(out) == []
+
+
+def test_staging_left_inside_a_forced_folder_by_a_killed_run_is_removed_by_the_next(tmp_path):
+    out = tmp_path / "results"
+    out.mkdir()
+    (out / "thesis.tex").write_text("keep me")
+    (out / ".results.staging-0badc0de").mkdir()  # what a SIGKILL during a --force run leaves
+    write_outputs(out, {"summary.json": "new"}, force=True)
+    assert sorted(p.name for p in out.iterdir()) == [MARKER, "summary.json", "thesis.tex"]
+
+
 def test_a_plan_writes_exactly_its_declared_files(tmp_path, task):
     from planner.pipeline import OUTPUT_FILES, plan
     plan(task).save(tmp_path / "out")

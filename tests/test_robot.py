@@ -293,3 +293,38 @@ def test_a_missing_mesh_is_named_once_by_the_planner_and_rerun_stays_quiet(tmp_p
         in captured.out
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["robot"]["missing_meshes"] == ["nothere.stl"]
+
+
+ONE_JOINT = """<robot name="r"><link name="base"/><link name="l1"/><link name="tool"/>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><axis xyz="0 0 1"/>
+    <limit lower="{lower}" upper="{upper}" effort="1" velocity="2"/></joint>
+  <joint name="{fixed}" type="fixed"><parent link="l1"/><child link="tool"/><origin xyz="0.3 0 0"/></joint></robot>"""
+
+
+def test_a_fixed_joint_named_as_its_link_and_a_one_joint_arm_plan(tmp_path):
+    """A fixed joint named like its child link (common in URDFs): the tool frame is the link's. A one-joint
+    arm reaches Cartesian waypoints (the binding gives its Jacobian as a vector)."""
+    import pinocchio as pin
+
+    from planner.ik import solve_pose
+    urdf = tmp_path / "r.urdf"
+    urdf.write_text(ONE_JOINT.format(lower=-3, upper=3, fixed="tool"))
+    robot = Robot.from_urdf(urdf, "tool")
+    assert robot.model.frames[robot.tool_frame_id].type == pin.FrameType.BODY
+    assert robot.frame_jacobian(np.array([0.2])).shape == (6, 1)
+    target = robot.forward_kinematics(np.array([0.5]))
+    np.testing.assert_allclose(target.translation, [0.3 * np.cos(0.5), 0.3 * np.sin(0.5), 0.0], atol=1e-12)
+    assert solve_pose(robot, target, np.array([0.0])).residual <= 1e-9
+
+
+def test_urdf_limits_are_named_by_the_urdf_joint(tmp_path):
+    urdf = tmp_path / "r.urdf"
+    urdf.write_text(ONE_JOINT.format(lower=1, upper=-1, fixed="tf"))
+    with pytest.raises(RobotError, match="joint j1 position range"):
+        Robot.from_urdf(urdf, "tool")
+
+
+@pytest.mark.parametrize("path", [None, 5])
+def test_a_urdf_path_that_is_no_path_is_a_robot_error(path):
+    with pytest.raises(RobotError, match="given by its path"):
+        Robot.from_urdf(path)

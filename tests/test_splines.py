@@ -238,6 +238,8 @@ def test_bad_input_raises_clear_error(via, durations, message):
     (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate([0.1, np.nan]), "not a finite number"),
     (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate([0.1], order=-1), "order must be a whole"),
     (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate([0.1], order=1.5), "order must be a whole"),
+    (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate([10**400]), "times must be numeric"),
+    (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).sample("100"), "sample rate must be > 0 Hz"),
 ])
 def test_bad_arguments_from_python_are_input_errors(call, message):
     """The API's own checks, not numpy's ValueError or broadcasting errors."""

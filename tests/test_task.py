@@ -299,6 +299,11 @@ def test_numbers_out_of_range_are_refused(where, value, message):
     assert_refused(lambda: parse_task(task_with(where, value), source=PAPER_CARTESIAN), message, where)
 
 
+def test_a_name_with_a_lone_surrogate_is_refused_by_key():
+    data = task_with("name", "a\ud800b")
+    assert_refused(lambda: parse_task(data, source=PAPER_CARTESIAN), "must be valid Unicode text", "name")
+
+
 @pytest.mark.parametrize("where, value, path", [
     ("waypoints.cartesian[0].rpy_deg", [1e20, 0, 0], "waypoints.cartesian[0].rpy_deg[0]"),
     ("waypoints.cartesian[0].hint_deg", [0, 0, -1e6, 0, 0, 0], "waypoints.cartesian[0].hint_deg[2]"),
