@@ -181,11 +181,16 @@ def _markdown_text(text: str) -> str:
     return "".join("\\" + c if c in "\\`*_{}[]()#+-.!|<>~$" else c for c in str(text)).replace("\n", " ")
 
 
+def _quiet_rerun_logs() -> None:
+    """Keep Rerun's own log lines (its URDF importer's warnings, its decoder's errors) off stderr, where
+    a planner run prints one line of its own, unless the user set ``RUST_LOG``. Rerun reads it when
+    first imported, so this goes before the first import in the process (the writers' own, a replay's)."""
+    os.environ.setdefault("RUST_LOG", "off")
+
+
 def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None:
     """Write ``result`` (a ``PlanResult``) as a Rerun recording at ``path`` (flushed and closed)."""
-    # The planner names missing meshes itself (summary.json, progress); Rerun's importer would warn
-    # about each on stderr as well. Read when rerun is first imported (the writer's own process).
-    os.environ.setdefault("RUST_LOG", "error")
+    _quiet_rerun_logs()  # the planner names missing meshes itself (summary.json, progress)
     import rerun as rr
     import rerun.blueprint as rrb
 
@@ -535,6 +540,7 @@ def read_recording(path) -> RecordedPlan:
 
 def _trajectory_chunks(path: Path) -> tuple[str, dict[str, list]]:
     """The recording's application id and its ``trajectory/...`` chunks by entity path."""
+    _quiet_rerun_logs()  # what the decoder cannot decode, the RecordingError below says once
     import rerun.chunk as rc
 
     try:
@@ -548,7 +554,8 @@ def _trajectory_chunks(path: Path) -> tuple[str, dict[str, list]]:
         raise RecordingError(f"{path}: not a readable Rerun recording ({said})") from None
     if any("no footer" in str(warning.message) for warning in warned):
         raise RecordingError(f"{path}: recording is incomplete: its footer, written when the file is closed, is "
-                             f"missing (the file was cut short or is still being written)")
+                             f"missing (the file was cut short, is still being written, or has bytes after its "
+                             f"end)")
     if len(stores) != 1:
         raise RecordingError(f"{path}: holds {len(stores)} recordings; a planner recording holds one")
     by_entity: dict[str, list] = {}

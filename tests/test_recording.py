@@ -138,6 +138,21 @@ def test_every_cut_of_a_recording_is_an_error(planned, tmp_path):
         read_recording(cut)
 
 
+@pytest.mark.parametrize("appended", [b"garbage", bytes(20_000)])
+def test_bytes_after_a_recording_are_one_line_without_rerun_logging(planned, tmp_path, appended):
+    """A fresh process, as a user runs it (Rerun reads its log settings when first imported)."""
+    import os
+    import subprocess
+    import sys
+    _, out = planned
+    damaged = tmp_path / "damaged.rrd"
+    damaged.write_bytes((out / "trajectory.rrd").read_bytes() + appended)
+    environment = {key: value for key, value in os.environ.items() if key != "RUST_LOG"}
+    run = subprocess.run([sys.executable, "-m", "planner.cli", "replay", str(damaged), "--check"],
+                         capture_output=True, text=True, env=environment, timeout=120)
+    assert run.returncode == 2 and run.stderr.count("\n") == 1 and "bytes after its end" in run.stderr, run.stderr
+
+
 RATE_HZ = 50.0
 
 
