@@ -287,9 +287,7 @@ def output_folder(path, *, force: bool = False, files: Iterable[str] = ()) -> It
         check_interrupted()  # an interruption a library swallowed must not publish half a run
         # Again: while this run worked, another may have written into DIR (its own --out DIR/sub, say);
         # swapping DIR out whole would delete that. Refused now, or (--force) merged file by file.
-        if not in_place and check_output_folder(folder, force=force)[1]:
-            in_place = True
-            _check_no_folder_in_the_way(folder, (item.name for item in staging.iterdir()))
+        in_place = in_place or check_output_folder(folder, force=force)[1]
         written = _write_marker(staging)
         if in_place:
             folder.mkdir(exist_ok=True)

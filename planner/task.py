@@ -48,7 +48,7 @@ from .ik import BRANCH_RULES
 from .limits import LIMITED, PROFILE_QUANTITIES
 from .read_only import freeze_arrays
 from .splines import FAMILIES
-from .timing import OPTIMIZERS, settings_signature
+from .timing import NOT_SETTINGS, OPTIMIZERS, settings_signature
 from .timing.problem import OBJECTIVES
 from .yaml_input import key_path, read_yaml
 
@@ -271,9 +271,13 @@ def _ranged(value, path: str):
         if not isinstance(value, bool):
             raise TaskError(path, f"must be true or false, got {shown(value)}")
         return value
-    number = _number(value, path, integer=rule.integer)
+    return _within(_number(value, path, integer=rule.integer), value, path, rule)
+
+
+def _within(number, given, path: str, rule: Range):
+    """``number`` (read from ``given``) if it is in ``rule``; else a ``TaskError`` at ``path``."""
     if number not in rule:
-        raise TaskError(path, f"must be {rule}, got {shown(value)}")
+        raise TaskError(path, f"must be {rule}, got {shown(given)}")
     return number
 
 
@@ -286,10 +290,7 @@ def _vector(value, path: str, rule: Range, length: int | None = None) -> np.ndar
     if not value:
         raise TaskError(path, "must have at least 1 value, got an empty list")
     numbers = [_number(v, f"{path}[{i}]") for i, v in enumerate(value)]
-    for i, number in enumerate(numbers):
-        if number not in rule:
-            raise TaskError(f"{path}[{i}]", f"must be {rule}, got {shown(value[i])}")
-    return np.array(numbers)
+    return np.array([_within(number, v, f"{path}[{i}]", rule) for i, (number, v) in enumerate(zip(numbers, value))])
 
 
 def _text(value, path: str) -> str:
@@ -432,7 +433,7 @@ def _path(value, path: str) -> PathOptions:
 def _optimizer_parameters(algorithm: str) -> tuple[str, ...]:
     """Names of the keyword settings of ``algorithm``, read from its signature (ranges in ``RANGES``)."""
     return tuple(p.name for p in inspect.signature(settings_signature(algorithm)).parameters.values()
-                 if p.kind == p.KEYWORD_ONLY and p.name not in ("seed", "progress", "variant"))
+                 if p.kind == p.KEYWORD_ONLY and p.name not in NOT_SETTINGS)
 
 
 def _optimizer(value, path: str) -> dict:

@@ -44,6 +44,9 @@ def _paper_cuckoo(problem: TimingProblem, **settings) -> OptimizationResult:
     return cuckoo_search(problem, variant="paper", **settings)
 
 
+#: Keyword parameters of the optimizers that are not settings of a task: the run's seed and progress
+#: display, and the Cuckoo Search variant that the algorithm's name chooses.
+NOT_SETTINGS = ("seed", "progress", "variant")
 #: algorithm name -> optimizer(problem, **settings)
 OPTIMIZERS = {
     "default": _default_planner,
@@ -83,11 +86,11 @@ def optimize(problem: TimingProblem, algorithm: str = "default", *, time_limit_s
         try:
             return optimizer(problem, **settings)
         except OutOfTime as stop:
-            requested = {key: value for key, value in settings.items() if key not in ("seed", "progress")}
+            requested = {key: value for key, value in settings.items() if key not in NOT_SETTINGS}
             return stop.tracker.result(algorithm, f"time limit of {time_limit_s:g} s reached", settings.get("seed"),
                                        requested)
 
 
-__all__ = ["OPTIMIZERS", "Evaluation", "OptimizationResult", "StartReport", "TimingProblem", "cuckoo_search",
-           "multistart_slsqp", "optimize", "particle_swarm", "scipy_differential_evolution", "settings_signature",
-           "shape_starts"]
+__all__ = ["NOT_SETTINGS", "OPTIMIZERS", "Evaluation", "OptimizationResult", "StartReport", "TimingProblem",
+           "cuckoo_search", "multistart_slsqp", "optimize", "particle_swarm", "scipy_differential_evolution",
+           "settings_signature", "shape_starts"]
