@@ -199,6 +199,25 @@ def follow_straight_lines(robot: Robot, poses: list[pin.SE3], waypoint_q: np.nda
                   waypoint=i)
 
 
+#: A joint change [rad] between two poses MIN_FRACTION apart beyond which the joint motion jumps there.
+JUMP_RAD = np.deg2rad(1.0)
+
+
+def _why_not_followed(robot: Robot, before: np.ndarray, after: np.ndarray) -> str:
+    """Why no inserted pose brings the tool closer between two neighbouring configurations [rad]:
+    the joints jump there (another IK branch or 2 pi turn, a singularity, a range bound), or they
+    barely move (the tolerance is finer than the timed motion between close via-points can keep)."""
+    change = np.abs(after - before)
+    joint = int(np.argmax(change))
+    if change[joint] > JUMP_RAD:
+        return (f"the joint motion jumps there (joint {robot.joint_names[joint]!r} by "
+                f"{np.rad2deg(change[joint]):.3g} deg between the two closest poses: another IK branch or 2 pi "
+                f"turn, a singularity or a joint range bound on the line)")
+    return (f"the joints barely move there (at most {np.rad2deg(change[joint]):.3g} deg between the two closest "
+            f"poses): the tolerance is finer than the timed motion keeps; allow a larger path.tolerance_m "
+            f"or path.tolerance_deg")
+
+
 def _insert(robot: Robot, poses: list[pin.SE3], segment: int, local: int, fractions: list[float],
             configurations: list[np.ndarray], distance: float, angle: float) -> None:
     """Insert the pose halfway between poses ``local`` and ``local + 1`` of ``segment``."""
@@ -207,11 +226,11 @@ def _insert(robot: Robot, poses: list[pin.SE3], segment: int, local: int, fracti
     target = interpolate_pose(poses[segment], poses[segment + 1], u)
     where = (f"path segment {segment} (waypoint {segment} -> {segment + 1}) at fraction {u:.4g}, "
              f"position [{', '.join(f'{x:.4f}' for x in target.translation)}] m")
+    before, after = configurations[local], configurations[local + 1]
     if high - low < 2 * MIN_FRACTION:
         raise IKError(f"{where}: the tool strays {1e3 * distance:.3g} mm and {np.rad2deg(angle):.3g} deg from "
-                      f"the straight line however close the poses; no joint motion within the ranges follows it "
-                      f"(a singularity or a joint range on the way)", waypoint=segment)
-    before, after = configurations[local], configurations[local + 1]
+                      f"the straight line however close the poses; {_why_not_followed(robot, before, after)}",
+                      waypoint=segment)
     best = solve_pose(robot, target, (before + after) / 2)
     for seed in (before, after):
         if best.residual <= 1e-9:

@@ -223,6 +223,7 @@ def main(argv=None, *, keep_signal_handlers: bool = False) -> int:
               file=sys.stderr)
         return 1
     finally:
+        interrupts.finish()  # the command is over: a signal from now on changes nothing
         if logged is not None:
             logging.getLogger("planner").removeHandler(logged)
         if not keep_signal_handlers:
@@ -231,8 +232,13 @@ def main(argv=None, *, keep_signal_handlers: bool = False) -> int:
 
 
 def entry() -> None:
-    """The installed ``planner`` command."""
-    sys.exit(main(keep_signal_handlers=True))
+    """The installed ``planner`` command. Once ``main`` returns, Ctrl-C and SIGTERM are ignored: Python
+    gives signals back their default action while it shuts down, and a late one would end the
+    process by signal instead of with the exit code already printed for."""
+    code = main(keep_signal_handlers=True)
+    for number in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(number, signal.SIG_IGN)
+    sys.exit(code)
 
 
 def _printable(text: str) -> str:

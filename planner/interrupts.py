@@ -5,7 +5,8 @@ raises inside its callbacks, prints a warning and carries on. So the command
 line's handlers also *record* the interruption here, and the long-running
 loops (after every IPOPT solve, every optimizer iteration, and just before
 outputs are published) call ``check``, which raises it
-again. Once the outputs are published the work is done: ``finish`` makes later
+again. Only the first interruption is raised: later ones would cut its cleanup
+short. Once the outputs are published the work is done: ``finish`` makes later
 signals change nothing.
 """
 
@@ -16,9 +17,12 @@ _finished = False
 
 
 def request(interruption: BaseException) -> None:
-    """Record ``interruption`` (an exception instance) unless the work is already finished, then raise it."""
+    """Record ``interruption`` (an exception instance) and raise it, unless the work is already
+    finished or an earlier interruption is on its way: a second signal (Ctrl-C then ``kill``, a
+    second Ctrl-C) raised inside the first one's cleanup would cut it short and leave a lock or a
+    staging folder behind, so it changes nothing."""
     global _pending
-    if _finished:
+    if _finished or _pending is not None:
         return
     _pending = interruption
     raise interruption

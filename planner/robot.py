@@ -126,8 +126,8 @@ class Robot:
             else:
                 failure = None
         if failure is not None:
-            raise RobotFileError(f"cannot load URDF {path}: {_first_line(str(failure))}{_detail(parser_log)}",
-                                 path=path) from None
+            problem = _negative_limit(path) or f"{_first_line(str(failure))}{_detail(parser_log)}"
+            raise RobotFileError(f"cannot load URDF {path}: {problem}", path=path) from None
         extra = _read_limit_file(path.with_suffix(".limits.yaml"), model)
         return cls._build(model.name or path.stem, model, tool_frame, path, tuple(package_dirs), extra)
 
@@ -182,6 +182,14 @@ class Robot:
                 raise UnsupportedRobotError(f"joint {reduced.names[j]!r} of robot {shown(name)} is a {kind}; only "
                                             f"revolute joints with one axis and position limits are supported",
                                             joint=reduced.names[j])
+            if kind == "JointModelRevoluteUnaligned" and not np.linalg.norm(reduced.joints[j].extract().axis) > 0:
+                raise RobotFileError(f"joint {reduced.names[j]!r} of robot {shown(name)} ({urdf_path}) has no axis "
+                                     f"to turn about: <axis xyz> is the zero vector", path=Path(urdf_path))
+        mimics = [joint for joint in _mimic_joints(Path(urdf_path)) if joint in reduced.names[1:]]
+        if mimics:
+            raise UnsupportedRobotError(f"joint {mimics[0]!r} of robot {shown(name)} copies another joint (URDF "
+                                        f"<mimic>); coupled joints are not supported: choose a tool frame whose "
+                                        f"chain has none", joint=mimics[0])
         if reduced.nq == 0:
             raise UnsupportedRobotError(f"frame {tool_frame!r} of robot {shown(name)} is not moved by any joint")
         extra_limits = {quantity: np.array([values[reduced.names[j]] for j in range(1, reduced.njoints)])
@@ -231,6 +239,38 @@ def _mesh_file(filename: str, urdf_path: Path, package_dirs) -> Path | None:
     return path if path.is_absolute() else urdf_path.parent / path
 
 
+def _urdf_elements(urdf_path: Path, tag: str) -> list:
+    """The ``<tag>`` elements directly under the URDF's ``<robot>`` (ElementTree elements); [] where
+    the file cannot be read as plain XML (a dialect Pinocchio reads and ElementTree does not)."""
+    import xml.etree.ElementTree as ElementTree
+
+    try:
+        return ElementTree.parse(urdf_path).getroot().findall(tag)
+    except (OSError, ElementTree.ParseError):
+        return []
+
+
+def _negative_limit(urdf_path: Path) -> str:
+    """The first ``<limit velocity|effort>`` of the URDF below zero, as ``joint 'j1': <limit velocity>
+    must be >= 0, got -2``; '' if none. Pinocchio refuses such a file without naming the joint."""
+    for joint in _urdf_elements(urdf_path, "joint"):
+        for limit in joint.findall("limit"):
+            for attribute in ("velocity", "effort"):
+                try:
+                    negative = float(limit.get(attribute, "0")) < 0
+                except ValueError:  # not a number: Pinocchio's own message names the joint
+                    negative = False
+                if negative:
+                    return (f"joint {shown(joint.get('name'), 60)}: <limit {attribute}> must be >= 0, got "
+                            f"{shown(limit.get(attribute), 40)}")
+    return ""
+
+
+def _mimic_joints(urdf_path: Path) -> list[str]:
+    """Names of the URDF's joints that copy another (``<mimic joint=...>``); Pinocchio ignores the tag."""
+    return [joint.get("name", "") for joint in _urdf_elements(urdf_path, "joint") if joint.find("mimic") is not None]
+
+
 def _check_meshes(urdf_path: Path, package_dirs) -> tuple[str, ...]:
     """Every mesh the URDF names that exists is a regular file of at most ``MAX_MESH_BYTES``, so that
     drawing the robot cannot read a device (``/dev/zero``) or a pipe without end. Returns the
@@ -239,14 +279,8 @@ def _check_meshes(urdf_path: Path, package_dirs) -> tuple[str, ...]:
     Raises:
         RobotError: naming the link, the mesh and what it is.
     """
-    import xml.etree.ElementTree as ElementTree
-
-    try:
-        links = list(ElementTree.parse(urdf_path).getroot().iter("link"))
-    except (OSError, ElementTree.ParseError):  # Pinocchio read it: a dialect ElementTree cannot; nothing to check
-        return ()
     missing: list[str] = []
-    for link in links:
+    for link in _urdf_elements(urdf_path, "link"):
         for mesh in link.iter("mesh"):
             named = mesh.get("filename") or ""
             try:

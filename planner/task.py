@@ -37,6 +37,7 @@ import inspect
 import math
 import os
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -50,7 +51,7 @@ from .read_only import freeze_arrays
 from .splines import FAMILIES
 from .timing import NOT_SETTINGS, OPTIMIZERS, settings_signature
 from .timing.problem import OBJECTIVES
-from .yaml_input import key_path, read_yaml
+from .yaml_input import MAX_NESTING, key_path, read_yaml
 
 SCHEMA_VERSION = 1
 #: Longest task name [characters]: it titles the figure, the recording and the summary.
@@ -600,16 +601,21 @@ def check_task(task: Task) -> Task:
     return task
 
 
-def _plain(value):
-    """Python and numpy values as the plain lists and numbers a parsed task file holds."""
+def _plain(value, path: str = "", depth: int = 0):
+    """Python and numpy values as the plain lists, dicts and numbers a parsed task file holds (any
+    ``Mapping`` becomes a dict), nested at most ``MAX_NESTING`` deep as in a file (a list that
+    contains itself is refused, not recursed into without end)."""
+    if depth > MAX_NESTING:
+        raise TaskError(path if len(path) <= 60 else f"{path[:60]}...",
+                        f"nested deeper than {MAX_NESTING} levels (a list or mapping containing itself?)")
     if isinstance(value, np.ndarray):
         return value.tolist()
     if isinstance(value, np.generic):
         return value.item()
-    if isinstance(value, dict):
-        return {key: _plain(item) for key, item in value.items()}
+    if isinstance(value, Mapping):
+        return {key: _plain(item, key_path(path, key), depth + 1) for key, item in value.items()}
     if isinstance(value, (list, tuple)):
-        return [_plain(item) for item in value]
+        return [_plain(item, f"{path}[{index}]", depth + 1) for index, item in enumerate(value)]
     return value
 
 
@@ -642,7 +648,7 @@ def make_task(*, name: str = "task", robot: dict | None = None, joints_deg=None,
     if (joints_deg is None) == (poses is None):
         raise TaskError("waypoints", "give exactly one of joints_deg or poses")
     waypoints = {"joints_deg": joints_deg} if poses is None else {
-        "cartesian": [entry if isinstance(entry, dict) else pose_entry(entry) for entry in poses]}
+        "cartesian": [entry if isinstance(entry, Mapping) else pose_entry(entry) for entry in poses]}
     document = {"version": SCHEMA_VERSION, "name": name, "waypoints": waypoints}
     for key, section in (("robot", robot), ("limits", limits), ("ik", ik), ("path", path),
                          ("trajectory", trajectory), ("optimizer", optimizer)):

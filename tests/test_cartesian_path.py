@@ -1,4 +1,5 @@
 import csv
+import re
 from pathlib import Path
 
 import numpy as np
@@ -270,10 +271,23 @@ def test_a_segment_that_never_comes_closer_is_given_up_naming_it(puma, monkeypat
         distance[waypoint_via[1]] = 1.0  # the first interval of segment 1
         return distance, angle, per_distance, per_angle
     monkeypatch.setattr(cartesian_path, "tool_deviation", always_off_at_the_start_of_segment_1)
-    with pytest.raises(IKError, match=r"path segment 1 \(waypoint 1 -> 2\) at fraction 0\.0009766.*however close")\
+    with pytest.raises(IKError, match=r"path segment 1 \(waypoint 1 -> 2\) at fraction 0\.0009766.*however close"
+                                      r".*the joints barely move there.*allow a larger path\.tolerance_m")\
             as raised:
         cartesian_path.follow_straight_lines(puma, poses, q, paper_timing, tolerance_m=0.01, tolerance_rad=1.0)
     assert raised.value.waypoint == 1
+
+
+def test_giving_up_names_the_joint_that_jumps_between_the_closest_poses(puma):
+    from planner.cartesian_path import JUMP_RAD, _why_not_followed
+    before = np.zeros(6)
+    after = before.copy()
+    after[2], after[4] = 3 * JUMP_RAD, 2 * JUMP_RAD
+    assert re.search(r"jumps there \(joint 'joint3' by 3 deg", _why_not_followed(puma, before, after))
+    after[2] = 0.5 * JUMP_RAD
+    assert re.search(r"jumps there \(joint 'joint5' by 2 deg", _why_not_followed(puma, before, after))
+    after[4] = 0.9 * JUMP_RAD
+    assert "barely move there (at most 0.9 deg" in _why_not_followed(puma, before, after)
 
 
 def test_an_inserted_pose_is_solved_from_a_neighbour_when_the_middle_seed_fails(puma, monkeypatch):

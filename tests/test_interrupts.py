@@ -56,6 +56,33 @@ def test_after_publishing_a_signal_changes_nothing():
     interrupts.check()
 
 
+def test_only_the_first_interruption_is_raised():
+    with pytest.raises(KeyboardInterrupt):
+        interrupts.request(KeyboardInterrupt())
+    interrupts.request(SystemExit())  # a second signal while the first unwinds: recorded nowhere, raises nothing
+    with pytest.raises(KeyboardInterrupt):
+        interrupts.check()
+
+
+def test_a_second_signal_during_the_cleanup_leaves_nothing_behind(tmp_path, monkeypatch):
+    """Ctrl-C, then SIGTERM while the first one's cleanup removes the staging folder (a run of the
+    command line left its lock and staging there one time in six, before)."""
+    import shutil
+
+    import planner.outputs as outputs
+    real = shutil.rmtree
+
+    def second_signal_first(path, *args, **kwargs):
+        interrupts.request(SystemExit())
+        real(path, *args, **kwargs)
+    monkeypatch.setattr(outputs.shutil, "rmtree", second_signal_first)
+    with pytest.raises(KeyboardInterrupt):
+        with output_folder(tmp_path / "out") as staging:
+            (staging / "a.txt").write_text("half of a run")
+            interrupts.request(KeyboardInterrupt())
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_sigterm_during_the_solver_exits_143_and_writes_nothing(tmp_path):
     data = yaml.safe_load((ROOT / "scripts" / "tasks" / "puma560_paper_joint.yaml").read_text())
     data["optimizer"] = {"algorithm": "cuckoo", "nests": 400, "iterations": 1, "refine_starts": 400}  # >4 s of IPOPT

@@ -328,3 +328,40 @@ def test_urdf_limits_are_named_by_the_urdf_joint(tmp_path):
 def test_a_urdf_path_that_is_no_path_is_a_robot_error(path):
     with pytest.raises(RobotError, match="given by its path"):
         Robot.from_urdf(path)
+
+
+def puma_edited(tmp_path, old: str, new: str) -> Path:
+    """The bundled PUMA URDF (and its limits file) with the first ``old`` replaced by ``new``."""
+    text = PUMA.read_text()
+    assert old in text
+    urdf = tmp_path / "edited.urdf"
+    urdf.write_text(text.replace(old, new, 1))
+    (tmp_path / "edited.limits.yaml").write_text(PUMA.with_suffix(".limits.yaml").read_text())
+    return urdf
+
+
+@pytest.mark.parametrize("attribute", ["velocity", "effort"])
+def test_a_negative_urdf_limit_names_its_joint(tmp_path, attribute):
+    first = 'velocity="1.745329252" effort="100"'
+    edited = first.replace('"1.745329252"', '"-2"') if attribute == "velocity" else first.replace('"100"', '"-1"')
+    with pytest.raises(RobotFileError, match=rf"joint 'joint1': <limit {attribute}> must be >= 0, got '-"):
+        Robot.from_urdf(puma_edited(tmp_path, first, edited))
+
+
+def test_a_joint_without_an_axis_is_refused_and_a_long_axis_is_a_direction(tmp_path):
+    """Pinocchio takes <axis xyz="0 0 0"/> and turns a rotation into a scaling; a non-unit axis is normalized."""
+    with pytest.raises(RobotFileError, match=r"joint 'joint1' of robot 'puma560' .* has no axis to turn about"):
+        Robot.from_urdf(puma_edited(tmp_path, '<axis xyz="0 0 1"/>', '<axis xyz="0 0 0"/>'))
+    long_axis = Robot.from_urdf(puma_edited(tmp_path, '<axis xyz="0 0 1"/>', '<axis xyz="0 0 2"/>'))
+    q = np.linspace(0.1, 0.6, 6)
+    assert long_axis.forward_kinematics(q).isApprox(Robot.from_urdf(PUMA).forward_kinematics(q), 1e-12)
+
+
+def test_a_mimic_joint_in_the_chain_is_refused(tmp_path):
+    """Pinocchio ignores <mimic> by default: the joint would be planned as if it moved freely."""
+    last = 'velocity="1.919862177" effort="100"/>'
+    urdf = puma_edited(tmp_path, last, last + '\n    <mimic joint="joint5" multiplier="1" offset="0"/>')
+    with pytest.raises(UnsupportedRobotError, match=r"joint 'joint6' of robot 'puma560' copies another") as caught:
+        Robot.from_urdf(urdf)
+    assert caught.value.joint == "joint6"
+    assert Robot.from_urdf(urdf, "link5").dof == 5  # a chain without it plans

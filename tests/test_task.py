@@ -427,3 +427,19 @@ def test_more_waypoints_than_planned_at_once_are_refused(key):
     assert_refused(lambda: parse_task(data, source=PAPER_CARTESIAN),
                    rf"^waypoints\.{key}: has {MAX_VIA_POINTS + 1} waypoints; at most {MAX_VIA_POINTS} are planned",
                    f"waypoints.{key}")
+
+
+def test_make_task_takes_any_mapping_and_refuses_a_list_containing_itself():
+    from types import MappingProxyType
+
+    from planner import make_task
+    joints = np.array([[0.0] * 6, [10.0] * 6, [20.0] * 6])
+    limits = {"velocity_deg_s": [100] * 6, "acceleration_deg_s2": [200] * 6, "jerk_deg_s3": [400] * 6}
+    as_dict = make_task(joints_deg=joints, limits=limits)
+    as_proxy = make_task(joints_deg=joints, limits=MappingProxyType(limits))
+    for quantity, values in as_dict.limits.items():
+        np.testing.assert_array_equal(as_proxy.limits[quantity], values)
+    looped: list = [0.0] * 5
+    looped.append(looped)
+    with pytest.raises(TaskError, match=rf"waypoints\.joints_deg\[0\]\[5\]\[5\].*nested deeper than {MAX_NESTING}"):
+        make_task(joints_deg=[looped, looped])
