@@ -85,9 +85,9 @@ def test_concurrent_nlp_starts_match_serial_ones(monkeypatch):
     serial = optimize(problem, "nlp")
     monkeypatch.setattr(nlp, "CONCURRENT_SEGMENTS", 1)
     concurrent = optimize(problem, "nlp")
-    assert serial.feasible and len(serial.starts) == 3
-    assert (serial.settings["nlp"]["processes"], concurrent.settings["nlp"]["processes"]) == (1, 3)
-    assert serial.settings["starts"] == ["rest-to-rest", "cruise", "uniform"]
+    assert serial.feasible and len(serial.starts) == 2
+    assert (serial.settings["nlp"]["processes"], concurrent.settings["nlp"]["processes"]) == (1, 2)
+    assert serial.settings["starts"] == ["rest-to-rest", "cruise"]
     assert serial.settings["nlp"]["ipopt"]["tol"] == nlp.IPOPT_OPTIONS["ipopt.tol"]
     np.testing.assert_array_equal(serial.durations, concurrent.durations)
     assert [(s.label, s.objective, s.iterations, s.status) for s in serial.starts] == \

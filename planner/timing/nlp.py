@@ -99,8 +99,8 @@ IPOPT_OPTIONS = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
                  "ipopt.constr_viol_tol": 1e-10, "ipopt.max_iter": 500, "ipopt.mumps_mem_percent": 50}
 
 #: Problems with at least this many segments solve their starts side by side, one process per start
-#: (``concurrency.map_forked``; on two cores, three starts take about 1.5 starts' time, where dealing
-#: them over two processes takes two); below, forking costs more than it saves.
+#: (``concurrency.map_forked``: on two cores, two starts take one start's time); below, forking
+#: costs more than it saves.
 CONCURRENT_SEGMENTS = 64
 #: IPOPT statuses after which a round's solution is used.
 SOLVED = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
