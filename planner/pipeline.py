@@ -17,6 +17,7 @@ import numpy as np
 
 from .cartesian_path import StraightPath, follow_straight_lines, tool_deviation
 from .concurrency import map_forked
+from .dynamics import RobotLimitOutcome, meet_robot_limits, torque_limits
 from .errors import IKError, InfeasibleError, MissingLimitError, PlannerError, TaskError
 from .export import coefficients_document, write_json, write_trajectory_csv
 from .ik import IKSolution, pose_from_position_quaternion, solve_waypoints
@@ -52,6 +53,7 @@ class PlanResult:
         branch_times: total time [s] of each branch rule's sequence, when both were timed (None: that
             rule's sequence could not be timed).
         branch_kept: the rule (``optimal`` or ``continuous``) whose IK sequence was planned.
+        robot_limits: how the torque and tool-speed limits were met, where the task gives them.
         path: for Cartesian tasks, how the tool follows the straight segments between
             waypoints (``linear`` mode) or strays from them (``joint`` mode).
     """
@@ -68,6 +70,7 @@ class PlanResult:
     path: StraightPath | None = None
     branch_times: dict[str, float | None] = field(default_factory=dict)
     branch_kept: str | None = None
+    robot_limits: RobotLimitOutcome | None = None
 
     @property
     def waypoint_via(self) -> np.ndarray:
@@ -123,6 +126,8 @@ class PlanResult:
             return {}
         summary: dict[str, Any] = {"robot": {"name": self.robot.name, "urdf": str(self.robot.urdf_path),
                              "tool_frame": self.robot.tool_frame, "missing_meshes": list(self.robot.missing_meshes)}}
+        if self.robot_limits is not None:
+            summary["robot_limits"] = self.robot_limits.summary()
         if self.ik is not None:
             summary["ik"] = {"branch": self.task.ik.branch, "sequence_kept": self.branch_kept,
                              "timed_sequences_s": self.branch_times, "waypoints": [
@@ -392,6 +397,19 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
             *_, distance, angle = tool_deviation(robot, trajectory, poses, waypoints)
             path = StraightPath(via, waypoints, np.zeros(len(poses) - 1, dtype=int), distance, angle, 1)
     timings["optimization"] = time.perf_counter() - start
+    met = None
+    if task.robot_limits.given:
+        assert robot is not None  # the task schema requires a robot for them
+        start = time.perf_counter()
+        given = task.robot_limits
+        progress.note("checking torques and tool speed")
+        trajectory, met = meet_robot_limits(
+            robot, trajectory, None if given.torque is None else torque_limits(robot, given.torque), given.tool_speed,
+            given.tool_angular_speed, trajectory.via_times[path.waypoint_via if path is not None else slice(None)])
+        if met.slow_down > 1:
+            progress.note(f"slowed down {met.slow_down:.6g} times to meet the torque and tool-speed limits")
+        timings["robot_limits"] = time.perf_counter() - start
     check_sample_count(task, trajectory.total_time)
     figures = kinematic_figures(trajectory)
-    return PlanResult(task, via, limits, result, trajectory, figures, timings, robot, ik, path, branch_times, kept)
+    return PlanResult(task, via, limits, result, trajectory, figures, timings, robot, ik, path, branch_times, kept,
+                      met)

@@ -14,6 +14,9 @@ Schema (version 1)::
       acceleration_deg_s2: [...]
       jerk_deg_s3: [...]
       position_deg: [[lower, upper], ...]
+      torque_nm: [...]                                     # robot only: per joint, or urdf (its efforts)
+      tool_speed_m_s: 0.25                                 # robot only: the tool frame's linear speed
+      tool_speed_deg_s: 90                                 # robot only: its angular speed
     ik: {branch: optimal, start_deg: [...], seed: 0}       # cartesian only; branch: optimal | continuous
     path: {mode: joint, tolerance_m: 0.001, tolerance_deg: 0.5}   # cartesian only; mode: joint | linear
     trajectory: {family: hybrid, sample_rate_hz: 100, min_segment_s: 0.001}
@@ -104,6 +107,8 @@ ANGLE_DEG = Range(-1e5, 1e5)
 LIMIT_DEG = Range(1e-12, 1e15)
 #: Every tool position coordinate [m].
 POSITION_M = Range(-1e4, 1e4)
+#: Every joint torque limit [N m]: a micro-actuator's to a large press's.
+TORQUE_NM = Range(1e-6, 1e7)
 #: Allowed values of every single number of a task, by key path; ``bool`` marks a true/false
 #: setting. The ``optimizer.*`` settings are the keyword arguments of the algorithms
 #: (``_optimizer_parameters``), each with its range here. Upper caps keep memory and run time
@@ -114,6 +119,8 @@ RANGES: dict[str, Range | type] = {
     "path.tolerance_deg": Range(1e-3, 180),                           # [deg]
     "trajectory.sample_rate_hz": Range(0, 100_000, low_open=True),     # [Hz]: at most 100 kHz
     "trajectory.min_segment_s": Range(0, 10, low_open=True),           # [s]
+    "limits.tool_speed_m_s": Range(1e-6, 1e3),                        # [m/s]
+    "limits.tool_speed_deg_s": Range(1e-6, 1e6),                      # [deg/s]
     "optimizer.seed": Range(0, MAX_SEED, integer=True),
     "optimizer.time_limit_s": Range(0, 86_400, low_open=True),         # [s]: at most a day
     "optimizer.bounds_s[0]": Range(0, 86_400, low_open=True),          # h_min [s]: at most a day
@@ -135,6 +142,30 @@ RANGES: dict[str, Range | type] = {
     "optimizer.evaluations": Range(1, 10_000_000, integer=True),
     "optimizer.starts": Range(1, _COUNT, integer=True),                # SLSQP
 }
+
+
+@dataclass(frozen=True)
+class RobotAwareLimits:
+    """Limits that need the robot's model, in SI units.
+
+    Attributes:
+        torque: (J,) joint torque limits [N m] (|tau| <= torque), ``"urdf"`` for the URDF's
+            efforts, or None.
+        tool_speed: the tool frame's largest linear speed [m/s], or None.
+        tool_angular_speed: its largest angular speed [rad/s], or None.
+    """
+
+    torque: np.ndarray | str | None = None
+    tool_speed: float | None = None
+    tool_angular_speed: float | None = None
+
+    def __post_init__(self):
+        freeze_arrays(self)
+
+    @property
+    def given(self) -> bool:
+        """Whether any of them is set."""
+        return any(value is not None for value in (self.torque, self.tool_speed, self.tool_angular_speed))
 
 
 @dataclass(frozen=True)
@@ -221,6 +252,7 @@ class Task:
     source: Path | None = None
     ik: IKOptions = field(default_factory=IKOptions)
     path: PathOptions = field(default_factory=PathOptions)
+    robot_limits: RobotAwareLimits = field(default_factory=RobotAwareLimits)
 
     def __post_init__(self):
         freeze_arrays(self)
@@ -375,8 +407,27 @@ def _waypoints(value, path: str):
     return None, [_cartesian_waypoint(p, f"{path}.cartesian[{i}]") for i, p in enumerate(poses)]
 
 
+_ROBOT_LIMIT_KEYS = ("torque_nm", "tool_speed_m_s", "tool_speed_deg_s")
+
+
+def _robot_limits(section: dict, path: str) -> RobotAwareLimits:
+    """``torque_nm`` (a list, or ``urdf``), ``tool_speed_m_s`` and ``tool_speed_deg_s`` of a limits section."""
+    torque: np.ndarray | str | None = None
+    if "torque_nm" in section:
+        given = section["torque_nm"]
+        torque = "urdf" if given == "urdf" else _vector(given, f"{path}.torque_nm", TORQUE_NM) \
+            if isinstance(given, (list, tuple)) else None
+        if torque is None:
+            raise TaskError(f"{path}.torque_nm", f"must be a list of torques [N m], one per joint, or urdf (the "
+                                                 f"URDF's efforts), got {shown(given)}")
+    speed = _ranged(section["tool_speed_m_s"], f"{path}.tool_speed_m_s") if "tool_speed_m_s" in section else None
+    angular = _ranged(section["tool_speed_deg_s"], f"{path}.tool_speed_deg_s") \
+        if "tool_speed_deg_s" in section else None
+    return RobotAwareLimits(torque, speed, None if angular is None else math.radians(angular))
+
+
 def _limits(value, path: str) -> dict[str, np.ndarray]:
-    section = _mapping(value, path, (*_LIMIT_KEYS, "position_deg"))
+    section = _mapping(value, path, (*_LIMIT_KEYS, "position_deg", *_ROBOT_LIMIT_KEYS))
     limits = {name: np.deg2rad(_vector(section[key], f"{path}.{key}", LIMIT_DEG))
               for key, name in _LIMIT_KEYS.items() if key in section}
     if "position_deg" in section:
@@ -525,6 +576,10 @@ def parse_task(data, *, name: str = "task", source: Path | None = None) -> Task:
     ik = _ik(document["ik"], "ik") if "ik" in document else IKOptions()
     path = _path(document["path"], "path") if "path" in document else PathOptions()
     limits = _limits(document["limits"], "limits") if "limits" in document else {}
+    robot_limits = _robot_limits(document["limits"], "limits") if "limits" in document else RobotAwareLimits()
+    if robot_limits.given and robot is None:
+        given = [key for key in _ROBOT_LIMIT_KEYS if key in document["limits"]]
+        raise TaskError(f"limits.{given[0]}", "needs a robot (its dynamics and tool frame): give robot")
     if robot is None and not any(k in limits for k in ("velocity", "acceleration", "jerk")):
         raise TaskError("limits", "a joint-space task without a robot needs velocity_deg_s, "
                                   "acceleration_deg_s2 or jerk_deg_s3")
@@ -539,7 +594,8 @@ def parse_task(data, *, name: str = "task", source: Path | None = None) -> Task:
     if len(label) > MAX_NAME_CHARS:
         raise TaskError("name", f"must be at most {MAX_NAME_CHARS} characters (it titles figures and files), "
                                 f"got {len(label)}")
-    return Task(label, joints, cartesian, robot, limits, family, rate, min_segment, optimizer, source, ik, path)
+    return Task(label, joints, cartesian, robot, limits, family, rate, min_segment, optimizer, source, ik, path,
+                robot_limits)
 
 
 def _degrees(values) -> list:
@@ -573,11 +629,18 @@ def task_document(task: Task) -> dict:
             document["waypoints"] = {"joints_deg": _degrees(task.joint_waypoints)}
         else:
             document["waypoints"] = None
-        limits = {_LIMIT_KEY_OF[name]: _degrees(values) for name, values in task.limits.items()
-                  if name not in ("lower", "upper")}
+        limits: dict[str, Any] = {_LIMIT_KEY_OF[name]: _degrees(values) for name, values in task.limits.items()
+                                  if name not in ("lower", "upper")}
         if "lower" in task.limits or "upper" in task.limits:
             limits["position_deg"] = np.stack((_degrees(task.limits["lower"]), _degrees(task.limits["upper"])),
                                               axis=-1).tolist()
+        given = task.robot_limits
+        if given.torque is not None:
+            limits["torque_nm"] = given.torque if isinstance(given.torque, str) else np.asarray(given.torque).tolist()
+        if given.tool_speed is not None:
+            limits["tool_speed_m_s"] = given.tool_speed
+        if given.tool_angular_speed is not None:
+            limits["tool_speed_deg_s"] = math.degrees(given.tool_angular_speed)
         if limits:
             document["limits"] = limits
         document["trajectory"] = {"family": task.family, "sample_rate_hz": task.sample_rate_hz,

@@ -14,6 +14,33 @@ settings.register_profile("project", deadline=None, max_examples=40, derandomize
 settings.load_profile("project")
 
 
+# Corke's PUMA 560 (mdl_puma560, standard DH): (d, a, alpha) per joint; the shoulder 0.6718 m above the floor.
+PUMA_DH = [(0.0, 0.0, np.pi / 2), (0.0, 0.4318, 0.0), (0.15005, 0.0203, -np.pi / 2),
+           (0.4318, 0.0, np.pi / 2), (0.0, 0.0, -np.pi / 2), (0.0, 0.0, 0.0)]
+
+
+def puma_dh_frames(q: np.ndarray) -> list[np.ndarray]:
+    """Independent of the URDF: the 4x4 DH frames 1..6 of configuration ``q`` [rad], from the
+    pedestal on, each frame i = frame i-1 Rz(q_i) Tz(d_i) Tx(a_i) Rx(alpha_i)."""
+    def rz(t):
+        c, s = np.cos(t), np.sin(t)
+        return np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])
+
+    def rx(t):
+        c, s = np.cos(t), np.sin(t)
+        return np.array([[1, 0, 0, 0], [0, c, -s, 0], [0, s, c, 0], [0, 0, 0, 1]])
+
+    frame = np.eye(4)
+    frame[2, 3] = 0.6718
+    frames = []
+    for qi, (d, a, alpha) in zip(q, PUMA_DH):
+        shift = np.eye(4)
+        shift[0, 3], shift[2, 3] = a, d
+        frame = frame @ rz(qi) @ shift @ rx(alpha)
+        frames.append(frame)
+    return frames
+
+
 @pytest.fixture
 def paper_via() -> np.ndarray:
     return np.deg2rad(paper.VIA_POINTS_DEG)

@@ -96,8 +96,9 @@ def test_longer_upper_arm_keeps_a_correct_closed_form(tmp_path):
 
 
 def test_wrist_that_is_not_spherical_has_no_closed_form(tmp_path):
-    robot = perturbed_puma(tmp_path, '<origin xyz="0 0 0" rpy="-1.570796327 0 0"/>',
-                           '<origin xyz="0.02 0 0" rpy="-1.570796327 0 0"/>')
+    joint6 = '<parent link="link5"/><child link="link6"/>\n    '
+    robot = perturbed_puma(tmp_path, joint6 + '<origin xyz="0 0 0" rpy="-1.570796327 0 0"/>',
+                           joint6 + '<origin xyz="0.02 0 0" rpy="-1.570796327 0 0"/>')
     assert analytic_solver(robot) is None
     q = np.deg2rad([10, -50, 70, 20, 30, 40])  # the numeric search still solves it
     solution = solve_waypoints(robot, [robot.forward_kinematics(q)])[0]

@@ -6,6 +6,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from conftest import puma_dh_frames
 from planner import (
     MissingLimitError,
     RobotError,
@@ -20,30 +21,11 @@ from planner.robot import Robot, load_robot
 ROOT = Path(__file__).resolve().parents[1]
 PUMA = ROOT / "robots" / "puma560.urdf"
 
-# Standard DH of the PUMA 560 (Corke, mdl_puma560): (d, a, alpha) per joint.
-PUMA_DH = [(0.0, 0.0, np.pi / 2), (0.0, 0.4318, 0.0), (0.15005, 0.0203, -np.pi / 2),
-           (0.4318, 0.0, np.pi / 2), (0.0, 0.0, -np.pi / 2), (0.0, 0.0, 0.0)]
-
-
 def dh_forward_kinematics(q: np.ndarray) -> np.ndarray:
-    """Independent FK: pedestal, prod_i Rz(q_i) Tz(d_i) Tx(a_i) Rx(alpha_i), then the 0.1 m tool."""
-    def rz(t):
-        c, s = np.cos(t), np.sin(t)
-        return np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])
-
-    def rx(t):
-        c, s = np.cos(t), np.sin(t)
-        return np.array([[1, 0, 0, 0], [0, c, -s, 0], [0, s, c, 0], [0, 0, 0, 1]])
-
-    def translate(x, z):
-        m = np.eye(4)
-        m[0, 3], m[2, 3] = x, z
-        return m
-
-    pose = translate(0, 0.6718)
-    for qi, (d, a, alpha) in zip(q, PUMA_DH):
-        pose = pose @ rz(qi) @ translate(a, d) @ rx(alpha)
-    return pose @ translate(0, 0.1)
+    """Independent FK: the DH frames (``conftest.puma_dh_frames``), then the 0.1 m tool."""
+    tool = np.eye(4)
+    tool[2, 3] = 0.1
+    return puma_dh_frames(q)[-1] @ tool
 
 
 @pytest.fixture(scope="module")
@@ -342,8 +324,8 @@ def puma_edited(tmp_path, old: str, new: str) -> Path:
 
 @pytest.mark.parametrize("attribute", ["velocity", "effort"])
 def test_a_negative_urdf_limit_names_its_joint(tmp_path, attribute):
-    first = 'velocity="1.745329252" effort="100"'
-    edited = first.replace('"1.745329252"', '"-2"') if attribute == "velocity" else first.replace('"100"', '"-1"')
+    first = 'velocity="1.745329252" effort="97.6"'
+    edited = first.replace('"1.745329252"', '"-2"') if attribute == "velocity" else first.replace('"97.6"', '"-1"')
     with pytest.raises(RobotFileError, match=rf"joint 'joint1': <limit {attribute}> must be >= 0, got '-"):
         Robot.from_urdf(puma_edited(tmp_path, first, edited))
 
@@ -359,7 +341,7 @@ def test_a_joint_without_an_axis_is_refused_and_a_long_axis_is_a_direction(tmp_p
 
 def test_a_mimic_joint_in_the_chain_is_refused(tmp_path):
     """Pinocchio ignores <mimic> by default: the joint would be planned as if it moved freely."""
-    last = 'velocity="1.919862177" effort="100"/>'
+    last = 'velocity="1.919862177" effort="21.3"/>'
     urdf = puma_edited(tmp_path, last, last + '\n    <mimic joint="joint5" multiplier="1" offset="0"/>')
     with pytest.raises(UnsupportedRobotError, match=r"joint 'joint6' of robot 'puma560' copies another") as caught:
         Robot.from_urdf(urdf)

@@ -1,0 +1,243 @@
+"""Robot-aware limits on a timed trajectory: joint torques and the tool frame's speed.
+
+Joint torques come from Pinocchio's recursive Newton-Euler algorithm,
+tau = M(q) q'' + C(q, q') q' + g(q) (``pinocchio.rnea``; rigid bodies as the
+URDF's ``<inertial>`` give them, no motor inertia or friction); the tool's
+linear and angular speeds from its frame Jacobian, |J_v(q) q'| and |J_w(q) q'|
+(``Robot.frame_jacobian``). Neither is a polynomial in time, so both are checked
+at samples, not exactly: at ``SAMPLE_RATE_HZ`` and at least
+``MIN_SAMPLES_PER_SEGMENT`` per segment (both segment ends included), at most
+``MAX_SAMPLES`` in all (a longer trajectory is sampled more sparsely, evenly).
+
+Meeting them by slowing down (the slowed trajectory is checked at the same
+samples, slowed too, where the law below holds exactly). Running the whole trajectory k >= 1 times slower
+(every duration times k) keeps its path and divides q' by k and q'' by k^2:
+
+* the tool's speeds are divided by k, so k = largest speed / limit meets them;
+* the torque becomes tau_k = g(q) + (tau - g(q)) / k^2 (gravity stays), so
+  with x = 1 / k^2 in (0, 1] each sample and joint needs
+  -L <= g + x (tau - g) <= L, a bound on x that is exact at the samples
+  (``torque_slow_down``). Where gravity alone exceeds the limit no slow-down
+  helps: that is an ``InfeasibleError`` naming the joint and where.
+
+The kinematic limits only become slacker when slowing down, so the kinematic
+optimum, slowed by the smallest such k, meets every limit: feasible, though not
+time-optimal under torque (a uniform slow-down, not a re-timing).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from .errors import InfeasibleError, MissingLimitError, RobotFileError, TaskError
+from .robot import Robot
+from .splines import PiecewisePolynomial
+
+#: Samples per second of the torque and tool-speed checks [Hz].
+SAMPLE_RATE_HZ = 1000.0
+#: Fewest samples per segment, both ends included (short segments are sampled densely too).
+MIN_SAMPLES_PER_SEGMENT = 32
+#: Most samples in all: RNEA costs about 10 us per sample here.
+MAX_SAMPLES = 200_000
+#: The slow-down is raised by this relative margin, so that rounding cannot leave a sample a hair above its limit.
+SLOW_DOWN_MARGIN = 1e-9
+
+
+@dataclass(frozen=True)
+class RobotLimitCheck:
+    """Torques and tool speeds of a trajectory at its check samples.
+
+    Attributes:
+        times: (K,) sample times [s].
+        torque: (K, J) joint torques [N m], or None without torque limits.
+        tool_speed: (K,) the tool frame's linear speed [m/s], or None without a linear limit.
+        tool_angular_speed: (K,) its angular speed [rad/s], or None without an angular limit.
+    """
+
+    times: np.ndarray
+    torque: np.ndarray | None
+    tool_speed: np.ndarray | None
+    tool_angular_speed: np.ndarray | None
+
+
+def check_times(trajectory: PiecewisePolynomial) -> np.ndarray:
+    """(K,) sample times [s]: ``SAMPLE_RATE_HZ``, at least ``MIN_SAMPLES_PER_SEGMENT`` per segment
+    (its ends included), at most ``MAX_SAMPLES`` (then spread evenly over the segments' share of time)."""
+    durations = trajectory.durations
+    counts = np.maximum(np.ceil(durations * SAMPLE_RATE_HZ).astype(int) + 1, MIN_SAMPLES_PER_SEGMENT)
+    if counts.sum() > MAX_SAMPLES:
+        share = durations / durations.sum() * (MAX_SAMPLES - 2 * len(durations))
+        counts = np.maximum(share.astype(int), 0) + 2
+    starts = trajectory.knot_times[:-1]
+    times = np.concatenate([start + np.linspace(0.0, h, count) for start, h, count in zip(starts, durations, counts)])
+    return np.unique(times)
+
+
+def joint_torques(robot: Robot, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+    """(K, J) inverse dynamics tau = M q'' + C q' + g [N m] of (K, J) positions [rad], velocities
+    [rad/s] and accelerations [rad/s^2] (``pinocchio.rnea``)."""
+    model, data = robot.model, robot.data
+    return np.array([pin.rnea(model, data, a, b, c) for a, b, c in zip(q, qd, qdd)]).reshape(len(q), model.nv)
+
+
+def gravity_torques(robot: Robot, q: np.ndarray) -> np.ndarray:
+    """(K, J) the torques g(q) [N m] that hold (K, J) positions [rad] still."""
+    model, data = robot.model, robot.data
+    return np.array([pin.computeGeneralizedGravity(model, data, a) for a in q]).reshape(len(q), model.nv)
+
+
+def tool_speeds(robot: Robot, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(K,) linear [m/s] and (K,) angular [rad/s] speed of the tool frame's origin, the norms of
+    J(q) q' (``Robot.frame_jacobian``; a norm does not depend on the axes it is expressed in)."""
+    twists = np.array([robot.frame_jacobian(a) @ b for a, b in zip(q, qd)]).reshape(len(q), 6)
+    return np.linalg.norm(twists[:, :3], axis=1), np.linalg.norm(twists[:, 3:], axis=1)
+
+
+def torque_limits(robot: Robot, given: np.ndarray | str) -> np.ndarray:
+    """(J,) torque limits [N m]: ``given``, or (``"urdf"``) the robot's URDF efforts.
+
+    Raises:
+        RobotFileError: a robot without inertial parameters (every torque would be 0).
+        MissingLimitError: ``urdf`` for a robot whose URDF gives a joint no effort (0).
+        TaskError: a list of the wrong length.
+    """
+    if not any(inertia.mass > 0 or inertia.inertia.any() for inertia in robot.model.inertias):
+        raise RobotFileError(f"robot {robot.name!r} has no inertial parameters (no <inertial> in {robot.urdf_path}): "
+                             f"torque limits need its masses and inertias", path=robot.urdf_path)
+    if isinstance(given, str):
+        efforts = np.asarray(robot.model.effortLimit, dtype=float)
+        missing = np.flatnonzero(~(efforts > 0))
+        if missing.size:
+            joint = robot.joint_names[missing[0]]
+            raise MissingLimitError(f"limits.torque_nm: urdf: robot {robot.name!r} gives joint {joint!r} no effort "
+                                    f"(effort = {efforts[missing[0]]:g}); give the torque limits as a list",
+                                    joint=joint, quantity="torque", key="limits.torque_nm")
+        return efforts
+    limits = np.asarray(given, dtype=float)
+    if len(limits) != robot.dof:
+        raise TaskError("limits.torque_nm", f"must have {robot.dof} values for robot {robot.name!r}, got {len(limits)}")
+    return limits
+
+
+def torque_slow_down(torque: np.ndarray, gravity: np.ndarray, limit: np.ndarray) -> np.ndarray:
+    """(K, J) the smallest slow-down k >= 1 after which each sample's torque is within +-limit.
+
+    Slowed k times, a sample's torque is g + (tau - g) / k^2. With x = 1 / k^2: where |tau| <= L,
+    x = 1 serves; where tau > L (then tau > g, as |g| <= L), x <= (L - g) / (tau - g); where
+    tau < -L, x <= (-L - g) / (tau - g). k = 1 / sqrt(x). Samples whose gravity torque alone
+    exceeds the limit get k = inf (no slow-down helps).
+
+    Args:
+        torque, gravity: (K, J) tau and g(q) [N m]; limit: (J,) L [N m].
+    """
+    x = np.ones_like(torque)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        above, below = torque > limit, torque < -limit
+        x = np.where(above, (limit - gravity) / (torque - gravity), x)
+        x = np.where(below, (-limit - gravity) / (torque - gravity), x)
+        slow_down = 1.0 / np.sqrt(np.clip(x, 0.0, 1.0))
+    return np.where(np.abs(gravity) > limit, np.inf, slow_down)
+
+
+def slowed(trajectory: PiecewisePolynomial, factor: float) -> PiecewisePolynomial:
+    """``trajectory`` run ``factor`` times slower: durations times k, coefficient i divided by k^i
+    (q_k(tau) = q(tau / k) on each segment), the same path."""
+    powers = float(factor) ** -np.arange(trajectory.coefficients.shape[2])
+    return PiecewisePolynomial(trajectory.durations * factor, trajectory.coefficients * powers,
+                               trajectory.via_knots)
+
+
+def check_robot_limits(robot: Robot, trajectory: PiecewisePolynomial, torque_limit: np.ndarray | None,
+                       tool_speed: float | None, tool_angular_speed: float | None,
+                       times: np.ndarray | None = None) -> RobotLimitCheck:
+    """Torques and tool speeds of ``trajectory`` at ``times`` [s] (default ``check_times``), for the
+    limits that are given."""
+    times = check_times(trajectory) if times is None else times
+    q, qd = trajectory.evaluate(times), trajectory.evaluate(times, 1)
+    torque = joint_torques(robot, q, qd, trajectory.evaluate(times, 2)) if torque_limit is not None else None
+    linear, angular = tool_speeds(robot, q, qd) if (tool_speed, tool_angular_speed) != (None, None) else (None, None)
+    return RobotLimitCheck(times, torque, None if tool_speed is None else linear,
+                           None if tool_angular_speed is None else angular)
+
+
+@dataclass(frozen=True)
+class RobotLimitOutcome:
+    """How a trajectory was made to meet its robot-aware limits.
+
+    Attributes:
+        torque_limit: (J,) [N m], tool_speed [m/s], tool_angular_speed [rad/s]: the limits (None: not given).
+        slow_down: the factor k >= 1 every duration was multiplied by (1: none needed).
+        check: the torques and tool speeds of the final trajectory at its samples.
+    """
+
+    torque_limit: np.ndarray | None
+    tool_speed: float | None
+    tool_angular_speed: float | None
+    slow_down: float
+    check: RobotLimitCheck
+
+    def summary(self) -> dict[str, object]:
+        """The largest |torque| per joint [N m] and its ratio to the limit, and the largest tool
+        speeds and their ratios (for the limits given), the slow-down and the sampling."""
+        check = self.check
+        figures: dict[str, object] = {"slow_down": self.slow_down, "samples": len(check.times),
+                                      "sampling": f"{SAMPLE_RATE_HZ:g} Hz, at least {MIN_SAMPLES_PER_SEGMENT} per "
+                                                  f"segment, at most {MAX_SAMPLES} in all"}
+        if check.torque is not None and self.torque_limit is not None:
+            peak = np.abs(check.torque).max(axis=0)
+            figures.update(torque_limit_nm=self.torque_limit, max_abs_torque_nm=peak,
+                           torque_ratio=peak / self.torque_limit)
+        if check.tool_speed is not None and self.tool_speed is not None:
+            peak = float(check.tool_speed.max())
+            figures.update(tool_speed_limit_m_s=self.tool_speed, max_tool_speed_m_s=peak,
+                           tool_speed_ratio=peak / self.tool_speed)
+        if check.tool_angular_speed is not None and self.tool_angular_speed is not None:
+            peak = float(check.tool_angular_speed.max())
+            figures.update(tool_speed_limit_deg_s=math.degrees(self.tool_angular_speed),
+                           max_tool_speed_deg_s=math.degrees(peak),
+                           tool_angular_speed_ratio=peak / self.tool_angular_speed)
+        return figures
+
+
+def meet_robot_limits(robot: Robot, trajectory: PiecewisePolynomial, torque_limit: np.ndarray | None,
+                      tool_speed: float | None, tool_angular_speed: float | None,
+                      waypoint_times: np.ndarray) -> tuple[PiecewisePolynomial, RobotLimitOutcome]:
+    """``trajectory`` slowed down uniformly by the smallest factor that meets the torque and tool-speed
+    limits at the check samples (module docstring), and how.
+
+    Args:
+        torque_limit: (J,) [N m]; tool_speed [m/s]; tool_angular_speed [rad/s]; None: no such limit.
+        waypoint_times: (n,) times [s] of the task's waypoints, to say where a gravity torque fails.
+
+    Raises:
+        InfeasibleError: gravity alone exceeds a joint's torque limit somewhere on the path, naming
+            the joint, the torque, the limit and the nearest waypoint.
+    """
+    check = check_robot_limits(robot, trajectory, torque_limit, tool_speed, tool_angular_speed)
+    factor = 1.0
+    if torque_limit is not None:
+        assert check.torque is not None
+        gravity = gravity_torques(robot, trajectory.evaluate(check.times))
+        needed = torque_slow_down(check.torque, gravity, torque_limit)
+        if not np.all(np.isfinite(needed)):
+            k, joint = np.unravel_index(int(np.argmax(np.abs(gravity) / torque_limit)), gravity.shape)
+            waypoint = int(np.argmin(np.abs(waypoint_times - check.times[k])))
+            raise InfeasibleError(f"joint {robot.joint_names[joint]!r} needs {gravity[k, joint]:.4g} N m just to hold "
+                                  f"still at t = {check.times[k]:.4g} s (nearest waypoint {waypoint}), beyond its "
+                                  f"torque limit {torque_limit[joint]:.4g} N m: no timing helps; raise "
+                                  f"limits.torque_nm or move the waypoints", joint=int(joint), quantity="torque",
+                                  value=float(gravity[k, joint]), limit=float(torque_limit[joint]))
+        factor = max(factor, float(needed.max()))
+    for speeds, limit in ((check.tool_speed, tool_speed), (check.tool_angular_speed, tool_angular_speed)):
+        if speeds is not None and limit is not None:
+            factor = max(factor, float(speeds.max()) / limit)
+    if factor > 1.0:
+        factor *= 1 + SLOW_DOWN_MARGIN
+        trajectory = slowed(trajectory, factor)  # the same samples, slowed: the scaling law holds at each
+        check = check_robot_limits(robot, trajectory, torque_limit, tool_speed, tool_angular_speed,
+                                   np.minimum(check.times * factor, trajectory.total_time))
+    return trajectory, RobotLimitOutcome(torque_limit, tool_speed, tool_angular_speed, factor, check)

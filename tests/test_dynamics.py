@@ -1,0 +1,211 @@
+"""Torques and tool speed: Pinocchio's dynamics of the bundled PUMA against the published parameters,
+the slow-down law on its own, and planned trajectories checked by independent evaluations."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from conftest import puma_dh_frames
+from planner import InfeasibleError, RobotError, TaskError, paper, plan
+from planner.dynamics import (
+    check_times,
+    gravity_torques,
+    joint_torques,
+    slowed,
+    tool_speeds,
+    torque_limits,
+    torque_slow_down,
+)
+from planner.robot import Robot
+from planner.timing import TimingProblem, optimize
+
+ROOT = Path(__file__).resolve().parents[1]
+PUMA = ROOT / "robots" / "puma560.urdf"
+GRAVITY = 9.81  # Pinocchio's default gravity [m/s^2]
+
+# Corke's mdl_puma560 ("params of 8/95"): mass [kg] and centre of mass in DH frame i [m] per link.
+PUMA_MASS = [0.0, 17.4, 4.8, 0.82, 0.34, 0.09]
+PUMA_COM = [(0, 0, 0), (-0.3638, 0.006, 0.2275), (-0.0203, -0.0141, 0.070), (0, 0.019, 0), (0, 0, 0), (0, 0, 0.032)]
+
+
+@pytest.fixture(scope="module")
+def puma():
+    return Robot.from_urdf(PUMA, "tool")
+
+
+def dh_potential_energy(q: np.ndarray) -> float:
+    """m g z of every link's centre of mass in the DH frames (independent of the URDF)."""
+    return sum(mass * GRAVITY * (frame @ np.array([*com, 1.0]))[2]
+               for frame, mass, com in zip(puma_dh_frames(q), PUMA_MASS, PUMA_COM))
+
+
+def test_puma_gravity_torques_match_the_published_parameters(puma):
+    """g(q) = dV/dq, V from the DH table and Corke's masses and centres of mass, by central differences."""
+    rng = np.random.default_rng(5)
+    for q in rng.uniform(puma.limits.lower, puma.limits.upper, (5, 6)):
+        step = 1e-6
+        gradient = [(dh_potential_energy(q + step * e) - dh_potential_energy(q - step * e)) / (2 * step)
+                    for e in np.eye(6)]
+        np.testing.assert_allclose(gravity_torques(puma, q[None])[0], gradient, atol=1e-6)
+
+
+def test_puma_efforts_are_the_published_maximum_torques(puma):
+    np.testing.assert_array_equal(torque_limits(puma, "urdf"), [97.6, 186.4, 89.4, 24.2, 20.1, 21.3])
+
+
+PENDULUM = """<robot name="pendulum">
+  <link name="base"/>
+  <link name="arm"><inertial><origin xyz="{length} 0 0"/><mass value="{mass}"/>
+    <inertia ixx="0.001" iyy="{inertia}" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="swing" type="revolute"><parent link="base"/><child link="arm"/><axis xyz="0 1 0"/>
+    <limit lower="-3" upper="3" velocity="2" effort="{effort}"/></joint>
+  <link name="tip"/>
+  <joint name="tip_fixed" type="fixed"><parent link="arm"/><child link="tip"/><origin xyz="{length} 0 0"/></joint>
+</robot>"""
+
+
+def pendulum(tmp_path, length=0.5, mass=2.0, inertia=0.03, effort=20.0) -> Robot:
+    urdf = tmp_path / "pendulum.urdf"
+    urdf.write_text(PENDULUM.format(length=length, mass=mass, inertia=inertia, effort=effort))
+    return Robot.from_urdf(urdf, "tip")
+
+
+@given(arrays(float, (20, 3), elements=st.floats(-3, 3)))
+@settings(max_examples=20, deadline=None)
+def test_pendulum_torque_is_the_closed_form(tmp_path_factory, states):
+    """A mass m at l from a horizontal axis (y, gravity -z): tau = (I + m l^2) q'' - m g l cos q;
+    its tip moves at l |q'|."""
+    robot = pendulum(tmp_path_factory.mktemp("p"), length=0.5, mass=2.0, inertia=0.03)
+    q, qd, qdd = states[:, :1], states[:, 1:2], states[:, 2:]
+    expected = (0.03 + 2.0 * 0.25) * qdd - 2.0 * GRAVITY * 0.5 * np.cos(q)
+    np.testing.assert_allclose(joint_torques(robot, q, qd, qdd), expected, atol=1e-9)
+    linear, angular = tool_speeds(robot, q, qd)
+    np.testing.assert_allclose(linear, 0.5 * np.abs(qd[:, 0]), atol=1e-12)
+    np.testing.assert_allclose(angular, np.abs(qd[:, 0]), atol=1e-12)
+
+
+@given(st.integers(0, 2**32 - 1))
+@settings(max_examples=50, deadline=None)
+def test_the_slow_down_law_meets_every_limit_and_is_tight(seed):
+    """Slowed k times, tau_k = g + (tau - g) / k^2: within +-L at every sample, at the bound at the worst one."""
+    rng = np.random.default_rng(seed)
+    limit = rng.uniform(1, 10, 4)
+    gravity = rng.uniform(-1, 1, (30, 4)) * limit
+    torque = gravity + rng.normal(0, 3, (30, 4)) * limit
+    needed = torque_slow_down(torque, gravity, limit)
+    assert np.all(needed >= 1)
+    k = needed.max()
+    slowed_torque = gravity + (torque - gravity) / k**2
+    assert np.all(np.abs(slowed_torque) <= limit * (1 + 1e-12))
+    if k > 1:
+        assert np.isclose((np.abs(slowed_torque) / limit).max(), 1.0, rtol=1e-12)
+    within = np.abs(torque) <= limit
+    assert np.all(needed[within] == 1)
+
+
+def test_gravity_beyond_the_limit_cannot_be_slowed_away():
+    needed = torque_slow_down(np.array([[5.0, 1.0]]), np.array([[4.0, 0.5]]), np.array([3.0, 3.0]))
+    assert needed[0, 0] == np.inf and needed[0, 1] == 1
+
+
+def test_a_slowed_trajectory_runs_the_same_path(paper_limits=None):
+    problem = TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", paper.paper_limits())
+    trajectory = problem.trajectory(optimize(problem, "nlp").durations)
+    k = 1.7
+    slower = slowed(trajectory, k)
+    times = np.linspace(0, trajectory.total_time, 301)
+    assert np.isclose(slower.total_time, k * trajectory.total_time)
+    for order in range(4):
+        np.testing.assert_allclose(slower.evaluate(k * times, order), trajectory.evaluate(times, order) / k**order,
+                                   atol=1e-9)
+
+
+def test_check_times_cover_every_segment_densely():
+    problem = TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", paper.paper_limits())
+    trajectory = problem.trajectory(optimize(problem, "nlp").durations)
+    times = check_times(trajectory)
+    assert times[0] == 0 and times[-1] == trajectory.total_time and np.all(np.diff(times) > 0)
+    assert np.diff(times).max() <= max(1e-3, trajectory.durations.min() / 31) * (1 + 1e-9)
+    assert np.all(np.isin(trajectory.knot_times, times))
+
+
+def paper_task(**limits) -> dict:
+    data = yaml.safe_load((ROOT / "scripts" / "tasks" / "puma560_paper_cartesian.yaml").read_text())
+    data["robot"]["urdf"] = str(PUMA)
+    data.setdefault("limits", {}).update(limits)
+    return data
+
+
+def independent_tool_speed(robot: Robot, trajectory, times: np.ndarray) -> np.ndarray:
+    """|d p / dt| of the tool position from Pinocchio's forward kinematics, by central differences."""
+    step = 1e-6
+    ahead = np.array([robot.forward_kinematics(q).translation for q in trajectory.evaluate(times + step)])
+    behind = np.array([robot.forward_kinematics(q).translation for q in trajectory.evaluate(times - step)])
+    return np.linalg.norm(ahead - behind, axis=1) / (2 * step)
+
+
+def test_a_tool_speed_cap_slows_the_plan_down_to_exactly_the_cap(puma):
+    result = plan(paper_task(tool_speed_m_s=0.25))
+    met = result.robot_limits
+    assert met is not None and met.slow_down > 1
+    trajectory = result.trajectory
+    times = np.linspace(1e-5, trajectory.total_time - 1e-5, 20001)  # not the planner's samples
+    speed = independent_tool_speed(puma, trajectory, times)
+    assert speed.max() <= 0.25 * (1 + 1e-4)
+    assert speed.max() >= 0.25 * (1 - 1e-3)  # tight: the cap binds
+    faster = slowed(trajectory, 0.999)
+    assert independent_tool_speed(puma, faster, times * 0.999).max() > 0.25
+    summary = result.summary()["robot_limits"]
+    assert summary["tool_speed_ratio"] <= 1 and np.isclose(summary["slow_down"], met.slow_down)
+    assert result.summary()["total_time_s"] == pytest.approx(met.slow_down * 17.3128, rel=1e-4)
+
+
+def test_torque_limits_that_bind_are_met_at_points_the_planner_did_not_use(puma):
+    efforts = np.array([97.6, 186.4, 89.4, 24.2, 20.1, 21.3])
+    fast = paper_task(acceleration_deg_s2=[2000] * 6, jerk_deg_s3=[20000] * 6, velocity_deg_s=[400] * 6)
+    unlimited = plan(fast)
+    result = plan({**fast, "limits": {**fast["limits"], "torque_nm": (efforts / 2).tolist()}})
+    met = result.robot_limits
+    assert met.slow_down > 1 and result.trajectory.total_time > unlimited.trajectory.total_time
+    trajectory = result.trajectory
+    times = (met.check.times[1:] + met.check.times[:-1]) / 2
+    torque = joint_torques(puma, *(trajectory.evaluate(times, order) for order in range(3)))
+    ratio = np.abs(torque).max(axis=0) / (efforts / 2)
+    assert ratio.max() <= 1 + 1e-3 and ratio.max() >= 0.99
+    np.testing.assert_allclose(result.summary()["robot_limits"]["torque_ratio"],
+                               np.abs(met.check.torque).max(axis=0) / (efforts / 2))
+
+
+def test_gravity_beyond_a_torque_limit_names_the_joint_and_the_waypoint():
+    with pytest.raises(InfeasibleError, match=r"joint 'joint2' needs -?[0-9.]+ N m just to hold still at t = .* "
+                                              r"\(nearest waypoint \d\), beyond its torque limit 10 N m") as caught:
+        plan(paper_task(torque_nm=[10] * 6))
+    assert (caught.value.joint, caught.value.quantity, caught.value.limit) == (1, "torque", 10.0)
+    assert abs(caught.value.value) > 10
+
+
+def test_robot_limits_need_a_robot_and_one_torque_per_joint(tmp_path):
+    data = yaml.safe_load((ROOT / "scripts" / "tasks" / "puma560_paper_joint.yaml").read_text())
+    data.pop("robot", None)
+    data.setdefault("limits", {})["tool_speed_m_s"] = 0.25
+    with pytest.raises(TaskError, match=r"limits\.tool_speed_m_s: needs a robot"):
+        plan(data)
+    with pytest.raises(TaskError, match=r"limits\.torque_nm: must have 6 values for robot 'puma560', got 2"):
+        plan(paper_task(torque_nm=[10, 10]))
+    with pytest.raises(TaskError, match=r"limits\.torque_nm: must be a list of torques"):
+        plan(paper_task(torque_nm="efforts"))
+
+
+def test_torque_limits_need_inertial_parameters(tmp_path):
+    urdf = tmp_path / "bare.urdf"
+    urdf.write_text(PENDULUM.replace('<inertial><origin xyz="{length} 0 0"/><mass value="{mass}"/>\n    <inertia ixx='
+                                     '"0.001" iyy="{inertia}" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial>', "")
+                    .format(length=0.5, effort=5))
+    robot = Robot.from_urdf(urdf, "tip")
+    with pytest.raises(RobotError, match="has no inertial parameters"):
+        torque_limits(robot, "urdf")
