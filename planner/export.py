@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import json
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -61,32 +62,41 @@ CSV_CHUNK_ROWS = 20_000
 
 
 def write_trajectory_csv(path: Path, trajectory: PiecewisePolynomial, rate_hz: float,
-                         joint_names: list[str] | None = None) -> None:
-    """Samples at ``rate_hz``: time [s], then position, velocity, acceleration, jerk per joint [deg-based].
+                         joint_names: list[str] | None = None,
+                         torques: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
+    """Samples at ``rate_hz``: time [s], then position, velocity, acceleration, jerk per joint [deg-based],
+    and, with ``torques`` (times (K,) [s] -> (K, J) [N m]), each joint's torque.
 
     Columns are named ``q_<joint>_deg``, ``v_<joint>_deg_s``, ``a_<joint>_deg_s2``,
-    ``j_<joint>_deg_s3`` (joint names default to joint1, joint2, ...; a header cell is quoted
-    where a name needs it). Written ``CSV_CHUNK_ROWS`` rows at a time, so memory stays flat
-    whatever the length.
+    ``j_<joint>_deg_s3`` and ``tau_<joint>_Nm`` (joint names default to joint1, joint2, ...; a
+    header cell is quoted where a name needs it). Written ``CSV_CHUNK_ROWS`` rows at a time, so
+    memory stays flat whatever the length.
     """
     times = trajectory.sample_times(rate_hz)
     names = joint_names or default_joint_names(trajectory.joint_count)
-    header = ["time_s"] + [f"{quantity}_{name}_{unit}" for quantity, unit in _QUANTITY_COLUMNS for name in names]
+    columns = _QUANTITY_COLUMNS + ((("tau", "Nm"),) if torques is not None else ())
+    header = ["time_s"] + [f"{quantity}_{name}_{unit}" for quantity, unit in columns for name in names]
     row = ",".join(["%.10g"] * len(header)) + "\n"
     with path.open("w", newline="", encoding="utf-8") as handle:
         csv.writer(handle, lineterminator="\n").writerow(header)
         for first in range(0, len(times), CSV_CHUNK_ROWS):
             chunk = times[first:first + CSV_CHUNK_ROWS]
-            values = np.rad2deg(trajectory.states(chunk))
-            table = np.column_stack([chunk] + list(values))
+            values = list(np.rad2deg(trajectory.states(chunk)))
+            if torques is not None:
+                values.append(torques(chunk))
+            table = np.column_stack([chunk] + values)
             handle.write((row * len(table)) % tuple(table.ravel().tolist()))
 
 
 def read_trajectory_csv(path: Path) -> tuple[np.ndarray, np.ndarray]:
-    """Inverse of ``write_trajectory_csv``: times (N,) [s] and values (4, N, J) [rad-based SI]."""
+    """Inverse of ``write_trajectory_csv``: times (N,) [s] and values (4, N, J) [rad-based SI]
+    (torque columns, where there are any, are left out)."""
+    with path.open(encoding="utf-8", newline="") as handle:
+        header = next(csv.reader(handle))
     data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2, encoding="utf-8")
-    joints = (data.shape[1] - 1) // 4
-    return data[:, 0], np.deg2rad(data[:, 1:].reshape(len(data), 4, joints).transpose(1, 0, 2))
+    groups = 5 if header[-1].startswith("tau_") else 4
+    joints = (data.shape[1] - 1) // groups
+    return data[:, 0], np.deg2rad(data[:, 1:1 + 4 * joints].reshape(len(data), 4, joints).transpose(1, 0, 2))
 
 
 def coefficients_document(trajectory: PiecewisePolynomial, joint_names: list[str] | None = None) -> dict:

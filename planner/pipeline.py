@@ -17,7 +17,7 @@ import numpy as np
 
 from .cartesian_path import StraightPath, follow_straight_lines, tool_deviation
 from .concurrency import map_forked
-from .dynamics import RobotLimitOutcome, meet_robot_limits, torque_limits
+from .dynamics import RobotLimitOutcome, joint_torques, meet_robot_limits, torque_limits
 from .errors import IKError, InfeasibleError, MissingLimitError, PlannerError, TaskError
 from .export import coefficients_document, write_json, write_trajectory_csv
 from .ik import IKSolution, pose_from_position_quaternion, solve_waypoints
@@ -71,6 +71,17 @@ class PlanResult:
     branch_times: dict[str, float | None] = field(default_factory=dict)
     branch_kept: str | None = None
     robot_limits: RobotLimitOutcome | None = None
+
+    @property
+    def torque_limit(self) -> np.ndarray | None:
+        """(J,) the joint torque limits [N m] the plan met, or None without any."""
+        return None if self.robot_limits is None else self.robot_limits.torque_limit
+
+    def torques_at(self, times: np.ndarray) -> np.ndarray:
+        """(K, J) the joint torques [N m] of the trajectory at ``times`` [s] (Pinocchio's RNEA)."""
+        assert self.robot is not None
+        trajectory = self.trajectory
+        return joint_torques(self.robot, *(trajectory.evaluate(times, order) for order in range(3)))
 
     @property
     def waypoint_via(self) -> np.ndarray:
@@ -166,7 +177,8 @@ class PlanResult:
         # Three independent writers, each holding the GIL most of its time: side by side in processes.
         map_forked(_call, [partial(self._write_recording, folder), partial(self._write_figure, folder),
                            partial(write_trajectory_csv, folder / "trajectory.csv", self.trajectory,
-                                   self.task.sample_rate_hz, self.joint_names)], workers=OUTPUT_WRITERS)
+                                   self.task.sample_rate_hz, self.joint_names, self.torques_at if
+                                   self.torque_limit is not None else None)], workers=OUTPUT_WRITERS)
         self.timings_s["outputs"] = time.perf_counter() - start
         write_json(folder / "summary.json", self.summary(), digits=SUMMARY_DIGITS)
 
@@ -180,7 +192,8 @@ class PlanResult:
         """profiles.png."""
         plot_profiles(self.trajectory, self.limits, folder / "profiles.png",
                       title=f"{self.task.name}: {self.task.family}, T = {self.trajectory.total_time:.3f} s",
-                      joint_names=self.joint_names, waypoint_via=self.waypoint_via)
+                      joint_names=self.joint_names, waypoint_via=self.waypoint_via,
+                      torques=None if self.torque_limit is None else (self.torques_at, self.torque_limit))
 
 
 #: The files ``PlanResult.write`` writes.

@@ -6,6 +6,7 @@ import warnings
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -94,6 +95,23 @@ def _draw_column(axes, column: ProfileColumn, limits: JointLimits, colours: list
     return joint_lines
 
 
+def _draw_torques(axis, trajectory: PiecewisePolynomial, torques: Callable[[np.ndarray], np.ndarray],
+                  limit: np.ndarray, colours: list[str], rate_hz: float) -> None:
+    """Each joint's torque [N m] against time in its colour, its limits dashed (as ``_draw_column``)."""
+    times = trajectory.sample_times(min(rate_hz, PLOT_SAMPLES / trajectory.total_time))
+    values = torques(times)
+    joints = values.shape[1]
+    for j in range(joints):
+        colour = colours[j % len(colours)]
+        axis.plot(times, values[:, j], color=colour, linewidth=1.4)
+        for bound in (-limit[j], limit[j]):
+            axis.axhline(bound, color=colour, linestyle=(3.0 * j, (3.0, 3.0 * max(joints - 1, 1))), linewidth=0.9,
+                         alpha=0.8)
+    axis.set_ylabel("torque [N m]")
+    axis.set_xlabel("time [s]")
+    axis.grid(alpha=0.3)
+
+
 def _legend_keys(columns: list[ProfileColumn], points_label: str, levels_label: str) -> tuple[list, list[str]]:
     """Legend entries for the limits, the via-point lines and the reference values the columns draw."""
     from matplotlib.lines import Line2D
@@ -139,8 +157,11 @@ def _save(plt, figure, path: Path, dpi: int) -> None:
 
 def plot_profiles(trajectory: PiecewisePolynomial, limits: JointLimits, path: Path, *, title: str = "",
                   rate_hz: float = 200.0, joint_names: list[str] | None = None,
-                  waypoint_via: np.ndarray | None = None) -> None:
-    """Position, velocity, acceleration and jerk of every joint against time, as PNG.
+                  waypoint_via: np.ndarray | None = None,
+                  torques: tuple[Callable[[np.ndarray], np.ndarray], np.ndarray] | None = None) -> None:
+    """Position, velocity, acceleration and jerk of every joint against time, as PNG; with
+    ``torques`` (a function of times (K,) [s] giving (K, J) torques [N m], and the (J,) limits
+    [N m]), a fifth plot of the joint torques and their limits.
 
     Dashed lines in each joint's colour mark its limits; joints whose limits share a value
     interleave their dashes, so each stays visible. Dotted grey lines mark the times of the
@@ -155,23 +176,27 @@ def plot_profiles(trajectory: PiecewisePolynomial, limits: JointLimits, path: Pa
     column = ProfileColumn(trajectory, waypoint_via=waypoint_via)
     names = joint_names or list(limits.names)
     with _plain_text_figures() as plt:
-        figure, axes = plt.subplots(4, 1, figsize=(11, 12), sharex=True)
+        rows = 4 if torques is None else 5
+        figure, axes = plt.subplots(rows, 1, figsize=(11, 3 * rows), sharex=True)
         colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-        lines = _draw_column(axes, column, limits, colours, rate_hz)
-        for k, axis in enumerate(axes):
+        lines = _draw_column(axes[:4], column, limits, colours, rate_hz)
+        for k, axis in enumerate(axes[:4]):
             axis.set_ylabel(f"{PROFILE_QUANTITIES[k].name} [{PROFILE_QUANTITIES[k].degree_unit}]")
+        if torques is not None:
+            _draw_torques(axes[4], trajectory, *torques, colours, rate_hz)
+            axes[3].set_xlabel("")
         keys, labels = _legend_keys([column], "", "")
         # A fixed layout (tight_layout would draw the figure once more): the title, the legend's rows, the axes.
         below_title = 0.995 - (0.02 if title else 0.0)
         if title:
             figure.suptitle(title, y=0.995, va="top")
         columns = min(len(lines) + len(keys), 5)
-        rows = -(-(len(lines) + len(keys)) // columns)
+        legend_rows = -(-(len(lines) + len(keys)) // columns)
         # Labels given explicitly: legend() would drop names starting with "_".
         figure.legend(lines + keys, names + labels, ncol=columns, loc="upper center", bbox_to_anchor=(0.5, below_title),
                       fontsize=8)
-        figure.subplots_adjust(left=0.085, right=0.985, bottom=0.045, top=below_title - 0.008 - 0.0145 * rows,
-                               hspace=0.1)
+        figure.subplots_adjust(left=0.085, right=0.985, bottom=0.045 * 4 / rows,
+                               top=below_title - (0.008 + 0.0145 * legend_rows) * 4 / rows, hspace=0.1)
         _save(plt, figure, path, dpi=110)
 
 

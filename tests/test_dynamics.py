@@ -209,3 +209,38 @@ def test_torque_limits_need_inertial_parameters(tmp_path):
     robot = Robot.from_urdf(urdf, "tip")
     with pytest.raises(RobotError, match="has no inertial parameters"):
         torque_limits(robot, "urdf")
+
+
+def test_the_outputs_carry_the_torques(puma, tmp_path):
+    """trajectory.csv gets one torque column per joint (Pinocchio's RNEA at its own times), the figure a
+    fifth plot and the recording a torque series per joint with its limits."""
+    import pinocchio as pin
+    import rerun as rr
+    import rerun.chunk as rc
+    from PIL import Image
+
+    from planner.export import read_trajectory_csv
+    result = plan(paper_task(torque_nm="urdf"))
+    result.save(tmp_path / "out")
+    header = (tmp_path / "out" / "trajectory.csv").read_text().split("\n", 1)[0].split(",")
+    assert header[-6:] == [f"tau_joint{j}_Nm" for j in range(1, 7)]
+    table = np.loadtxt(tmp_path / "out" / "trajectory.csv", delimiter=",", skiprows=1)
+    times, values = read_trajectory_csv(tmp_path / "out" / "trajectory.csv")  # the kinematic columns as before
+    np.testing.assert_allclose(times, table[:, 0])
+    model, data = puma.model, puma.model.createData()
+    for k in range(0, len(times), 97):
+        q, qd, qdd = (result.trajectory.evaluate(times[k:k + 1], order)[0] for order in range(3))
+        np.testing.assert_allclose(table[k, -6:], pin.rnea(model, data, q, qd, qdd), rtol=1e-8, atol=1e-8)
+    plain = plan(paper_task())
+    plain.save(tmp_path / "plain")
+    assert "tau_" not in (tmp_path / "plain" / "trajectory.csv").read_text().split("\n", 1)[0]
+    with Image.open(tmp_path / "out" / "profiles.png") as torque_figure, \
+            Image.open(tmp_path / "plain" / "profiles.png") as figure:
+        assert torque_figure.height == figure.height * 5 // 4
+    def entities(folder: str) -> set[str]:
+        return {chunk.entity_path for chunk in rc.RrdReader(str(tmp_path / folder / "trajectory.rrd")).stream()
+                .to_chunks()}
+    for name in result.joint_names:
+        assert rr.new_entity_path(["profiles", "torque", name]) in entities("out")
+        assert rr.new_entity_path(["profiles", "torque", "limits", name, "upper"]) in entities("out")
+    assert not any("/torque/" in e for e in entities("plain"))
