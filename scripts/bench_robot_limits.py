@@ -1,0 +1,138 @@
+"""Benchmark: torque and tool-speed limits (``planner.dynamics``) on the bundled robot tasks.
+
+For the UR5 pick-and-place and the PUMA paper Cartesian task, it plans each case in-process (median
+wall time of ``--repeats`` runs after a warm-up):
+
+* ``kinematic``: the task's own limits;
+* ``torque urdf`` and ``torque halved``: ``limits.torque_nm`` the URDF's efforts, and half of them;
+* ``tool 0.25 m/s``: ``limits.tool_speed_m_s: 0.25``;
+* ``binding``: acceleration and jerk limits 10 times the task's (or the robot's) and the torque
+  limits 0.4 times the efforts, so that torque rather than the kinematic limits decides (with the
+  efforts halved, the UR5's torques still stay within 92 % of them).
+
+For each it reports the total time, the slow-down, the planning wall time, and an independent
+dense check of the result: Pinocchio's RNEA at 1 kHz on a grid offset by half a period from the
+planner's own samples (the largest torque ratio over joints), and the tool's speed there by
+central differences of forward kinematics. With ``--toppra`` (``pip install .[bench]``) it also
+time-parametrizes the same geometric path (a cubic spline through the planned trajectory's
+positions at 200 Hz, in s = t / T) under the same velocity, acceleration and torque limits, and
+gives TOPP-RA's duration and wall time beside the planner's (no jerk limit there).
+
+    python scripts/bench_robot_limits.py [--repeats 3] [--toppra]
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import yaml
+
+from planner import plan
+
+ROOT = Path(__file__).resolve().parents[1]
+#: The ``binding`` case's torque limits, as a fraction of the URDF's efforts.
+BINDING_EFFORTS = 0.4
+TASKS = {"ur5 pick-and-place": ROOT / "scripts" / "tasks" / "ur5_pick_and_place.yaml",
+         "puma paper": ROOT / "scripts" / "tasks" / "puma560_paper_cartesian.yaml"}
+
+
+def cases(document: dict, kinematic) -> dict[str, dict]:
+    """The task document of each case (module docstring); ``kinematic``: the plan of the task as it is."""
+    def with_limits(**limits) -> dict:
+        changed = yaml.safe_load(yaml.safe_dump(document))
+        changed.setdefault("limits", {}).update(limits)
+        return changed
+    efforts = np.asarray(kinematic.robot.model.effortLimit, dtype=float)
+    faster = {"acceleration_deg_s2": np.rad2deg(10 * kinematic.limits.acceleration).tolist(),
+              "jerk_deg_s3": np.rad2deg(10 * kinematic.limits.jerk).tolist()}
+    return {"kinematic": with_limits(), "torque urdf": with_limits(torque_nm="urdf"),
+            "torque halved": with_limits(torque_nm=(efforts / 2).tolist()),
+            "tool 0.25 m/s": with_limits(tool_speed_m_s=0.25),
+            "binding": with_limits(torque_nm=(BINDING_EFFORTS * efforts).tolist(), **faster)}
+
+
+def dense_check(result, torque_limit: np.ndarray | None) -> tuple[float, float]:
+    """Largest torque ratio (RNEA) and tool speed [m/s] (forward-kinematics differences) at 1 kHz,
+    half a period off the planner's grid."""
+    robot, trajectory = result.robot, result.trajectory
+    times = np.arange(0.0005, trajectory.total_time, 0.001)
+    q, qd, qdd = (trajectory.evaluate(times, order) for order in range(3))
+    model, data = robot.model, robot.model.createData()
+    ratio = float("nan")
+    if torque_limit is not None:
+        torque = np.array([pin.rnea(model, data, a, b, c) for a, b, c in zip(q, qd, qdd)])
+        ratio = float((np.abs(torque) / torque_limit).max())
+    step = 1e-6
+    ahead = np.array([robot.forward_kinematics(a).translation for a in trajectory.evaluate(times + step)])
+    behind = np.array([robot.forward_kinematics(a).translation for a in trajectory.evaluate(times - step)])
+    return ratio, float((np.linalg.norm(ahead - behind, axis=1) / (2 * step)).max())
+
+
+def toppra_peer(result, torque_limit: np.ndarray | None) -> tuple[float, float]:
+    """TOPP-RA's duration [s] and wall time [s] on the planned path under the same velocity, acceleration
+    and torque limits."""
+    import toppra
+    import toppra.algorithm
+    import toppra.constraint
+
+    toppra.setup_logging("WARNING")
+    trajectory, limits, robot = result.trajectory, result.limits, result.robot
+    times = np.linspace(0.0, trajectory.total_time, max(int(trajectory.total_time * 200), 50))
+    model, data = robot.model, robot.model.createData()
+    start = time.perf_counter()
+    path = toppra.SplineInterpolator(times / trajectory.total_time, trajectory.evaluate(times))
+    constraints = [toppra.constraint.JointVelocityConstraint(np.vstack((-limits.velocity, limits.velocity)).T),
+                   toppra.constraint.JointAccelerationConstraint(
+                       np.vstack((-limits.acceleration, limits.acceleration)).T)]
+    if torque_limit is not None:
+        constraints.append(toppra.constraint.JointTorqueConstraint(
+            lambda q, qd, qdd: pin.rnea(model, data, q, qd, qdd), np.vstack((-torque_limit, torque_limit)).T,
+            np.zeros(robot.dof)))
+    parametrized = toppra.algorithm.TOPPRA(constraints, path, parametrizer="ParametrizeConstAccel") \
+        .compute_trajectory()
+    return float(parametrized.duration), time.perf_counter() - start
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--toppra", action="store_true", help="TOPP-RA on the same path (extra [bench])")
+    args = parser.parse_args()
+    print(f"median of {args.repeats} runs in-process after a warm-up\n")
+    header = ("| task | case | total time [s] | slow-down | plan wall [s] | dense torque ratio "
+              "| dense tool speed [m/s] |")
+    if args.toppra:
+        header += " TOPP-RA duration [s] | TOPP-RA wall [s] |"
+    print(header)
+    print("|" + "---|" * (header.count("|") - 1))
+    for task_name, task_file in TASKS.items():
+        document = yaml.safe_load(task_file.read_text())
+        if "urdf" in document.get("robot", {}):
+            document["robot"]["urdf"] = str((task_file.parent / document["robot"]["urdf"]).resolve())
+        for case, changed in cases(document, plan(document)).items():  # that first plan is the warm-up
+            walls = []
+            for _ in range(args.repeats):
+                start = time.perf_counter()
+                result = plan(changed)
+                walls.append(time.perf_counter() - start)
+            met = result.robot_limits
+            torque_limit = None if met is None else met.torque_limit
+            ratio, speed = dense_check(result, torque_limit)
+            row = (f"| {task_name} | {case} | {result.trajectory.total_time:.4f} | "
+                   f"{1.0 if met is None else met.slow_down:.4f} | {statistics.median(walls):.3f} | "
+                   f"{'-' if torque_limit is None else f'{ratio:.4f}'} | {speed:.4f} |")
+            if args.toppra and case.startswith("tool"):
+                row += " - | - |"  # TOPP-RA has no tool-speed constraint of its own
+            elif args.toppra:
+                duration, wall = toppra_peer(result, torque_limit)
+                row += f" {duration:.4f} | {wall:.3f} |"
+            print(row, flush=True)
+
+
+if __name__ == "__main__":
+    main()
