@@ -41,7 +41,7 @@ from .splines import PiecewisePolynomial
 SAMPLE_RATE_HZ = 1000.0
 #: Fewest samples per segment, both ends included (short segments are sampled densely too).
 MIN_SAMPLES_PER_SEGMENT = 32
-#: Most samples in all: RNEA costs about 10 us per sample here.
+#: Most samples in all: RNEA and gravity cost about 5 us per sample here (PUMA paper task: 17,317 samples, 0.08 s).
 MAX_SAMPLES = 200_000
 #: The slow-down is raised by this relative margin, so that rounding cannot leave a sample a hair above its limit.
 SLOW_DOWN_MARGIN = 1e-9
