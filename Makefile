@@ -26,3 +26,4 @@ bench: $(STAMP)
 	$(BIN)/python scripts/bench_plan.py
 	$(BIN)/python scripts/bench_scale.py
 	$(BIN)/python scripts/bench_cartesian.py
+	$(BIN)/python scripts/bench_robot_limits.py

@@ -45,7 +45,7 @@ def _plan(args) -> int:
     if not args.quiet:
         timing = ", ".join(f"{k} {v:.3f} s" for k, v in result.timings_s.items())
         print(f"{result.task.name}: {result.task.family}, total time {result.trajectory.total_time:.4f} s, "
-              f"largest ratio {result.optimization.max_ratio:.4f}, feasible {result.optimization.feasible}")
+              f"largest ratio {result.max_ratio:.4f}, feasible {result.feasible}")
         print(f"timings: {timing}")
         print(f"outputs in {out}/: " + ", ".join(sorted(p.name for p in out.iterdir() if not p.name.startswith("."))))
         print(f"open the recording with: {_command()} replay {out / 'trajectory.rrd'}  "

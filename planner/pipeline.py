@@ -73,6 +73,17 @@ class PlanResult:
     robot_limits: RobotLimitOutcome | None = None
 
     @property
+    def feasible(self) -> bool:
+        """Whether the final trajectory meets every kinematic limit (the exact check) after a
+        feasible optimization (``summary.json``'s ``feasible``)."""
+        return bool(self.optimization.feasible) and not self.figures.violations(self.limits)
+
+    @property
+    def max_ratio(self) -> float:
+        """The final trajectory's largest kinematic constraint ratio (after any slow-down)."""
+        return float(np.max(self.figures.ratios(self.limits)))
+
+    @property
     def torque_limit(self) -> np.ndarray | None:
         """(J,) the joint torque limits [N m] the plan met, or None without any."""
         return None if self.robot_limits is None else self.robot_limits.torque_limit
@@ -109,7 +120,7 @@ class PlanResult:
             "via_times_s": self.trajectory.via_times,
             "durations_s": self.trajectory.durations,
             "total_time_s": self.trajectory.total_time,
-            "feasible": result.feasible and not self.figures.violations(self.limits),
+            "feasible": self.feasible,
             "max_ratio": {q: ratios[d] for d, q in enumerate(QUANTITIES)},
             "limits": {**per_quantity_deg(self.limits.magnitudes),
                        "position_deg": {"lower": to_deg(self.limits.lower), "upper": to_deg(self.limits.upper)}},

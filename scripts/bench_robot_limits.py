@@ -103,6 +103,11 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--toppra", action="store_true", help="TOPP-RA on the same path (extra [bench])")
     args = parser.parse_args()
+    if args.toppra:
+        try:
+            import toppra  # noqa: F401
+        except ImportError:
+            parser.error("--toppra needs TOPP-RA, the bench extra: pip install '.[bench]'")
     print(f"median of {args.repeats} runs in-process after a warm-up\n")
     header = ("| task | case | total time [s] | slow-down | plan wall [s] | dense torque ratio "
               "| dense tool speed [m/s] |")

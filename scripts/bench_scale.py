@@ -161,6 +161,11 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--algorithm", default="default")
     args = parser.parse_args()
+    if args.toppra:
+        try:
+            import toppra  # noqa: F401
+        except ImportError:
+            parser.error("--toppra needs TOPP-RA, the bench extra: pip install '.[bench]'")
     limits = paper.paper_limits()
     via = np.deg2rad(paper.VIA_POINTS_DEG)
     optimize(TimingProblem(via, "hybrid", limits), args.algorithm)  # warm-up: imports, first build
