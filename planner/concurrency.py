@@ -18,6 +18,8 @@ import multiprocessing
 import os
 import pickle
 import signal
+import time
+from multiprocessing.connection import wait
 from typing import Callable, Sequence, TypeVar
 
 Item = TypeVar("Item")
@@ -44,37 +46,65 @@ def map_forked(function: Callable[[Item], Result], items: Sequence[Item], worker
     child. ``workers`` defaults to ``core_count()``; 1, one item, or no ``fork``
     on this platform runs everything here.
     """
+    results = _map(function, items, workers, None)
+    return [results[i] for i in range(len(items))]
+
+
+def map_forked_until(function: Callable[[Item], Result], items: Sequence[Item], workers: int | None,
+                     deadline: float) -> list[Result | None]:
+    """``map_forked`` that stops at ``deadline`` (a ``time.monotonic()`` time [s]): every share runs in
+    a child and the caller only waits; children not done by then are ended and their items' results
+    are None (a library call cannot be stopped halfway in the calling process; a child can). With one
+    worker or without ``fork``, everything runs here and the deadline is not enforced."""
+    results = _map(function, items, workers, deadline)
+    return [results.get(i) for i in range(len(items))]
+
+
+def _map(function: Callable[[Item], Result], items: Sequence[Item], workers: int | None,
+         deadline: float | None) -> dict[int, Result]:
+    """The results by item index (``map_forked``, ``map_forked_until``: those done by the deadline)."""
     workers = min(workers or core_count(), len(items))
     context = _fork_context()
     if workers <= 1 or context is None:
-        return [function(item) for item in items]
+        return {i: function(item) for i, item in enumerate(items)}
     shares = [list(range(w, len(items), workers)) for w in range(workers)]
-    children = []
+    children: list = []
+    results: dict[int, Result] = {}
     try:
-        for share in shares[1:]:
+        for share in shares[1:] if deadline is None else shares:
             receive, send = context.Pipe(duplex=False)
             process = context.Process(target=_serve, args=(function, [items[i] for i in share], send), daemon=True)
             process.start()
             send.close()
             children.append((share, process, receive))
-        results = {i: function(items[i]) for i in shares[0]}
-        for share, process, receive in children:
-            try:
-                failed, payload = receive.recv()
-            except EOFError:
-                process.join()
-                raise RuntimeError(f"a worker process ended without a result (exit code {process.exitcode})") from None
-            process.join()
-            if failed:
-                raise payload
-            results.update(zip(share, payload))
+        if deadline is None:
+            results.update({i: function(items[i]) for i in shares[0]})
+            for share, process, receive in children:
+                _collect(receive, share, process, results)
+        else:
+            waiting = {receive: (share, process) for share, process, receive in children}
+            while waiting and (left := deadline - time.monotonic()) > 0:
+                for ready in wait(list(waiting), timeout=left):
+                    _collect(ready, *waiting.pop(ready), results)
     finally:
         for _, process, receive in children:
             receive.close()
             if process.is_alive():
                 process.terminate()
-                process.join()
-    return [results[i] for i in range(len(items))]
+            process.join()
+    return results
+
+
+def _collect(receive, share: list[int], process, results: dict) -> None:
+    """A child's results for the items ``share`` into ``results``, or its exception raised here."""
+    try:
+        failed, payload = receive.recv()
+    except EOFError:
+        process.join()
+        raise RuntimeError(f"a worker process ended without a result (exit code {process.exitcode})") from None
+    if failed:
+        raise payload
+    results.update(zip(share, payload))
 
 
 def _serve(function: Callable, items: list, send) -> None:

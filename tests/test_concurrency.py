@@ -92,3 +92,45 @@ def test_concurrent_nlp_starts_match_serial_ones(monkeypatch):
     np.testing.assert_array_equal(serial.durations, concurrent.durations)
     assert [(s.label, s.objective, s.iterations, s.status) for s in serial.starts] == \
         [(s.label, s.objective, s.iterations, s.status) for s in concurrent.starts]
+
+
+def sleep_then_pid(seconds):
+    import time
+    time.sleep(seconds)
+    return os.getpid()
+
+
+def test_a_deadline_ends_the_children_still_working():
+    """Every share runs in a child; results of children not done by the deadline are None, and those
+    children are ended (not left running)."""
+    import time
+
+    from planner.concurrency import map_forked_until
+    start = time.monotonic()
+    results = map_forked_until(sleep_then_pid, [0.0, 60.0, 0.0, 60.0], 2, start + 2.0)
+    assert time.monotonic() - start < 30  # not the 60 s a child would sleep
+    assert results[1] is None and results[3] is None
+    assert results[0] == results[2] != os.getpid()
+    children = [int(p) for p in os.popen(f"pgrep -P {os.getpid()}").read().split()]
+    assert all(os.popen(f"ps -o stat= -p {pid}").read().strip() in ("", "Z") for pid in children)
+    assert all(pid != os.getpid() for pid in map_forked_until(sleep_then_pid, [0.0, 0.0], 2, time.monotonic() + 30))
+
+
+def test_the_time_limit_ends_nlp_starts_that_run_over(monkeypatch):
+    """From CONCURRENT_SEGMENTS segments the starts run in processes; at the time limit those still
+    solving are ended and reported so, and the result is the best repaired start (feasible)."""
+    import time
+
+    from planner import paper
+    from planner.timing import TimingProblem, nlp, optimize
+
+    def endless(self, start):
+        time.sleep(600)
+    via = np.deg2rad(np.cumsum(np.random.default_rng(3).uniform(-40, 40, (70, 6)), axis=0))
+    problem = TimingProblem(via, "cubic", paper.paper_limits())
+    monkeypatch.setattr(nlp.TimingNLP, "solve", endless)
+    started = time.monotonic()
+    result = optimize(problem, "nlp", time_limit_s=2.0)
+    assert time.monotonic() - started < 60
+    assert result.stop_reason == "time limit of 2 s reached" and result.feasible
+    assert problem.evaluate_durations(result.durations[None]).feasible[0]

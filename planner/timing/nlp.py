@@ -68,13 +68,14 @@ tight; nothing is reported feasible that the exact check did not pass.
 from __future__ import annotations
 
 import logging
+import time
 from dataclasses import dataclass, replace
 from math import factorial
 from typing import Any
 
 import numpy as np
 
-from ..concurrency import map_forked
+from ..concurrency import map_forked, map_forked_until
 from ..interrupts import check as check_interrupted
 from ..kinematics import max_abs, segment_extrema
 from ..native_output import stderr_captured
@@ -102,6 +103,10 @@ IPOPT_OPTIONS = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
 #: (``concurrency.map_forked``: on two cores, two starts take one start's time); below, forking
 #: costs more than it saves.
 CONCURRENT_SEGMENTS = 64
+#: The status of a start whose solve the time limit ended (in its own process, from ``CONCURRENT_SEGMENTS``
+#: on: IPOPT checks its own wall-time limit only between iterations, and one iteration of a degenerate
+#: problem took 10 s at n = 1000).
+OUT_OF_TIME = "stopped at the time limit"
 #: IPOPT statuses after which a round's solution is used.
 SOLVED = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 
@@ -532,7 +537,11 @@ def nlp_refine(problem: TimingProblem, starts: dict[str, np.ndarray], tracker: S
     repaired = tracker.evaluate(np.array([starts[label] for label in labels]))
     nlp = TimingNLP(problem, repaired.durations[int(np.argmin(repaired.objective))])
     nlp.blocks  # builds the program without certificates once, before any process forks
-    outcomes = map_forked(nlp.solve, list(repaired.durations), _processes(problem, len(labels)))
+    processes, remaining = _processes(problem, len(labels)), remaining_time()
+    solved = map_forked(nlp.solve, list(repaired.durations), processes) if remaining is None else \
+        map_forked_until(nlp.solve, list(repaired.durations), processes, time.monotonic() + remaining)
+    outcomes = [NLPOutcome(start, 0, 0, OUT_OF_TIME, 0) if outcome is None else outcome
+                for start, outcome in zip(repaired.durations, solved)]
     for label, outcome in zip(labels, outcomes):
         result = (tracker.evaluate(outcome.durations[None]) if outcome.states is None
                   else tracker.evaluate_states(outcome.durations[None], outcome.states[None]))
