@@ -92,6 +92,33 @@ def test_a_reachable_pose_outside_narrow_ranges_names_a_joint_and_its_bound():
     assert raised.value.waypoint == 0 and raised.value.residual <= 1e-9
 
 
+@pytest.mark.parametrize("low, high", [(100.0, 120.0), (-100.0, -80.0), (500.0, 520.0)])
+def test_a_pose_reachable_only_outside_one_narrow_range_names_that_joint_its_nearest_turn_and_bound(low, high):
+    """Only the shoulder-lift joint's range is narrowed (and away from the solution, on either side and
+    beyond a turn): the message names it, its value in the turn nearest the range, and the bound it passes."""
+    import re
+    robot = Robot.from_example_robot_data("ur5", "tool0")
+    lower, upper = robot.limits.lower.copy(), robot.limits.upper.copy()
+    lower[1], upper[1] = np.deg2rad(low), np.deg2rad(high)
+    pose = robot.forward_kinematics(np.deg2rad([10.0, -60.0, 80.0, -100.0, -90.0, 30.0]))
+    with pytest.raises(IKError) as raised:
+        solve_waypoints(robot, [pose], limits=robot.limits.with_overrides(lower=lower, upper=upper))
+    found = re.search(r"joint (\w+) at (-?[\d.]+) deg, beyond its (upper|lower) limit (-?[\d.]+) deg",
+                      str(raised.value))
+    assert found, str(raised.value)
+    name, value, side, bound = found[1], float(found[2]), found[3], float(found[4])
+    assert name == "shoulder_lift_joint" and abs(value - (low + high) / 2) <= 180
+    assert (side, bound) == (("lower", low) if value < low else ("upper", high))
+
+
+def test_without_a_start_the_branch_nearest_the_middle_of_the_ranges_is_chosen(puma):
+    middle = (puma.limits.lower + puma.limits.upper) / 2
+    for seed in range(20):
+        candidates = np.random.default_rng(seed).uniform(puma.limits.lower, puma.limits.upper, (5, 6))
+        assert choose_branches(puma, puma.limits, [candidates]) == \
+            [int(np.argmin(np.linalg.norm(candidates - middle, axis=1)))]
+
+
 def test_hint_of_wrong_length(puma):
     pose = puma.forward_kinematics(np.zeros(6))
     with pytest.raises(InputError, match="waypoint 0: hint has 3 values, robot has 6 joints"):
@@ -104,6 +131,8 @@ def test_pose_from_quaternion_matches_pinocchio():
     pose = pose_from_position_quaternion([1, 2, 3], quaternion)
     np.testing.assert_allclose(pin.Quaternion(pose.rotation).coeffs(), quaternion, atol=1e-12)
     np.testing.assert_allclose(pose.translation, [1, 2, 3])
+    assert pose_from_position_quaternion([1, 2, 3], [0, 0, 1, 1]).isApprox(
+        pose_from_position_quaternion([1.0, 2.0, 3.0], [0.0, 0.0, 2 ** -0.5, 2 ** -0.5]), 1e-12)  # integers too
 
 
 # ---------------------------------------------------------------------------- branch choice
@@ -196,6 +225,18 @@ def test_ranges_so_wide_that_the_turns_outnumber_the_branch_budget_are_refused_n
     assert raised.value.waypoint == 0 and time.perf_counter() - started < 30
     solutions = solve_waypoints(robot, [pose, pose], limits=wide, branch="continuous")
     assert all(s.residual <= 1e-9 for s in solutions)
+
+
+def test_the_too_many_turns_refusal_lists_exactly_the_joints_spanning_more_than_a_turn():
+    import re
+    robot = Robot.from_example_robot_data("ur5", "tool0")
+    half = np.deg2rad([700, 700, 700, 700, 200, 170])
+    pose = robot.forward_kinematics(np.deg2rad([10.0, -60.0, 80.0, -100.0, -90.0, 30.0]))
+    with pytest.raises(IKError) as raised:
+        solve_waypoints(robot, [pose], limits=robot.limits.with_overrides(lower=-half, upper=half))
+    listed = re.search(r"spans more than 360 deg: (.*)\. Narrow", str(raised.value))
+    assert listed, str(raised.value)
+    assert [item.split(" (")[0] for item in listed[1].split(", ")] == robot.joint_names[:5]
 
 
 @given(st.lists(st.floats(-700.0, 700.0), min_size=6, max_size=6), st.lists(st.floats(100.0, 700.0), min_size=6,

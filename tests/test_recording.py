@@ -651,3 +651,21 @@ def test_long_plans_log_fewer_profile_values_but_every_sample(planned, tmp_path,
     recorded = read_recording(path)
     assert len(recorded.times) == len(trajectory.sample(result.task.sample_rate_hz)[0])
     assert recorded.check().passed
+
+
+def test_the_recorded_robot_is_animated_joint_by_joint(planned):
+    """Every planned joint's transform is logged once per sample on the time timeline, and the robot's
+    geometry is there (the recording once lost its robot without a test noticing)."""
+    import rerun.chunk as rc
+    result, out = planned
+    rows: dict[str, int] = {}
+    geometry = 0
+    for chunk in rc.RrdReader(str(out / "trajectory.rrd")).stream().filter(content="/robot/**").to_chunks():
+        if "joint_transforms" not in chunk.entity_path:
+            geometry += 1
+        elif not chunk.is_static and "time" in chunk.to_record_batch().schema.names:
+            rows[chunk.entity_path] = rows.get(chunk.entity_path, 0) + chunk.num_rows
+    samples = len(result.trajectory.sample_times(result.task.sample_rate_hz))
+    assert {name: rows.get(f"/robot/joint_transforms/{name}") for name in result.joint_names} == \
+        {name: samples for name in result.joint_names}
+    assert geometry > 0
