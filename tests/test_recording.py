@@ -1,5 +1,6 @@
 import json
 import os
+import re
 import struct
 import subprocess
 import sys
@@ -231,11 +232,23 @@ INCOMPLETE = {
 }
 
 
+#: What the message says of an incomplete recording, beyond "recording is incomplete" (computed from the
+#: 201 samples of 4 s at 50 Hz that ``write_like_planner`` writes).
+DIAGNOSES = {
+    "a duplicated time": r"two samples at 1\.0 s",
+    "samples shifted by 2 ns": r"samples start at 2e-09 s, not at 0\.0 s",
+    "samples stretched beyond the end": r"samples end at 4\.04 s, not at the total time 4\.0 s",
+    "a sample missing inside": r"200 of the 201 samples",
+    "a gap, the count as announced": r"no samples between 1\.98 s and 2\.02 s \(sample period 0\.02 s\)",
+}
+
+
 @pytest.mark.parametrize("case", INCOMPLETE)
 def test_incomplete_recordings_are_errors(case, tmp_path, capsys):
     path = write_like_planner(tmp_path / "r.rrd", **INCOMPLETE[case])
-    with pytest.raises(RecordingError, match="recording is incomplete|trajectory/end"):
+    with pytest.raises(RecordingError, match="recording is incomplete|trajectory/end") as raised:
         read_recording(path)
+    assert re.search(DIAGNOSES.get(case, ""), str(raised.value)), str(raised.value)
     assert main(["replay", str(path), "--check"]) == 2
     captured = capsys.readouterr()
     assert captured.out == "" and captured.err.startswith("error: ") and captured.err.count("\n") == 1
