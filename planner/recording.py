@@ -137,19 +137,36 @@ def _position_range(positions: np.ndarray, limits: JointLimits) -> tuple[float, 
     return low, high
 
 
-def _symmetric_range(values: np.ndarray, magnitudes: np.ndarray, *, degrees: bool = True) -> tuple[float, float]:
-    """A derivative plot's range (values and limits in rad-based SI, shown in degrees; or, without
-    ``degrees``, as they are): +-(the largest value or limit, with a margin), widened to the next power
-    of ten when just short of it, so that the plot's power-of-ten ticks label more than its zero line."""
+def _symmetric_range(values: np.ndarray, magnitudes: np.ndarray) -> tuple[float, float]:
+    """A derivative's or a torque's plot range, in the units of ``values`` and ``magnitudes`` (its limits):
+    +-(the largest value or limit, with a margin), widened to the next power of ten when just short
+    of it, so that the plot's power-of-ten ticks label more than its zero line."""
     finite = magnitudes[np.isfinite(magnitudes)]
     top = 1.08 * max(float(np.abs(values).max()), float(finite.max()) if finite.size else 0.0)
-    top = float(np.rad2deg(top)) if degrees else top
     if top <= 0:
         return -1.0, 1.0
     decade = 10.0 ** math.floor(math.log10(top))
     if top > 5 * decade:
         top = max(top, 10.4 * decade)
     return -top, top
+
+
+def _log_profile(rec, profile: str, name: str, colour, index: list, values: np.ndarray, bounds, total_time: float):
+    """One joint's series in the plot ``profile`` (values in the plot's units), named and coloured as the
+    joint, and each finite bound (lower, upper) as a thinner dashed line of the same name and colour: the
+    legend holds one entry per joint (entries of one name are merged) and never lists the limits."""
+    import rerun as rr
+
+    entity = _entity("profiles", profile, name)
+    rec.log(entity, rr.SeriesLines(names=name, colors=[colour], widths=1.5), static=True)
+    rec.send_columns(entity, indexes=index, columns=rr.Scalars.columns(scalars=values))
+    for side, bound in zip(("lower", "upper"), bounds):
+        if np.isfinite(bound):
+            entity = _entity("profiles", profile, "limits", name, side)
+            rec.log(entity, rr.SeriesLines(names=name, colors=[colour], widths=0.75), static=True)
+            dash_times, dash_values = _dashed(float(bound), total_time)
+            rec.send_columns(entity, indexes=[rr.TimeColumn("time", duration=dash_times)],
+                             columns=rr.Scalars.columns(scalars=dash_values))
 
 
 def plan_summary(result) -> str:
@@ -222,32 +239,14 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
     bounds = [(result.limits.lower, result.limits.upper)] + [(-m, m) for m in result.limits.magnitudes]
     for k, profile in enumerate(_PROFILES):
         for j, name in enumerate(names):
-            colour = joint_colour(j)
-            entity = _entity("profiles", profile, name)
-            rec.log(entity, rr.SeriesLines(names=name, colors=[colour], widths=1.5), static=True)
-            rec.send_columns(entity, indexes=plot_index,
-                             columns=rr.Scalars.columns(scalars=np.rad2deg(plot_values[k, :, j])))
-            for side, bound in zip(("lower", "upper"), (bounds[k][0][j], bounds[k][1][j])):
-                if np.isfinite(bound):
-                    entity = _entity("profiles", profile, "limits", name, side)
-                    rec.log(entity, rr.SeriesLines(names=name, colors=[colour], widths=0.75), static=True)
-                    dash_times, dash_values = _dashed(float(np.rad2deg(bound)), trajectory.total_time)
-                    rec.send_columns(entity, indexes=[rr.TimeColumn("time", duration=dash_times)],
-                                     columns=rr.Scalars.columns(scalars=dash_values))
+            _log_profile(rec, profile, name, joint_colour(j), plot_index, np.rad2deg(plot_values[k, :, j]),
+                         np.rad2deg((bounds[k][0][j], bounds[k][1][j])), trajectory.total_time)
     torque_limit = getattr(result, "torque_limit", None)
-    if torque_limit is not None:  # a fifth plot, in N m, as the others: each joint's series and its limits dashed
+    if torque_limit is not None:  # a fifth plot, in N m, as the others
         torques = result.torques_at(plot_times)
         for j, name in enumerate(names):
-            colour = joint_colour(j)
-            entity = _entity("profiles", "torque", name)
-            rec.log(entity, rr.SeriesLines(names=name, colors=[colour], widths=1.5), static=True)
-            rec.send_columns(entity, indexes=plot_index, columns=rr.Scalars.columns(scalars=torques[:, j]))
-            for side, bound in (("lower", -torque_limit[j]), ("upper", torque_limit[j])):
-                entity = _entity("profiles", "torque", "limits", name, side)
-                rec.log(entity, rr.SeriesLines(names=name, colors=[colour], widths=0.75), static=True)
-                dash_times, dash_values = _dashed(float(bound), trajectory.total_time)
-                rec.send_columns(entity, indexes=[rr.TimeColumn("time", duration=dash_times)],
-                                 columns=rr.Scalars.columns(scalars=dash_values))
+            _log_profile(rec, "torque", name, joint_colour(j), plot_index, torques[:, j],
+                         (-torque_limit[j], torque_limit[j]), trajectory.total_time)
     via_index = [rr.TimeColumn("time", duration=trajectory.via_times)]
     via_positions = trajectory.evaluate(trajectory.via_times)
     for j, name in enumerate(names):
@@ -259,13 +258,13 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
                                 plot_legend=rrb.PlotLegend(corner="LeftTop", visible=k == 0),
                                 axis_y=rrb.ScalarAxis(
                                     range=_position_range(plot_values[0], result.limits) if k == 0
-                                    else _symmetric_range(plot_values[k], result.limits.magnitudes[k - 1])))
+                                    else _symmetric_range(np.rad2deg(plot_values[k]),
+                                                          np.rad2deg(result.limits.magnitudes[k - 1]))))
              for k, (p, unit) in enumerate(zip(_PROFILES, DEGREE_UNITS))]
     if torque_limit is not None:
-        torque_range = _symmetric_range(torques, torque_limit, degrees=False)
         plots.append(rrb.TimeSeriesView(origin="/profiles/torque", name="torque [N m]",
                                         plot_legend=rrb.PlotLegend(corner="LeftTop", visible=False),
-                                        axis_y=rrb.ScalarAxis(range=torque_range)))
+                                        axis_y=rrb.ScalarAxis(range=_symmetric_range(torques, torque_limit))))
     summary = rrb.TextDocumentView(origin=_SUMMARY, name="summary")
     if result.robot is not None:
         eye = _log_robot(rec, result, times, values[0])

@@ -55,6 +55,11 @@ class ProfileColumn:
     levels: np.ndarray | None = None
 
 
+def _dashes(joint: int, joints: int) -> tuple:
+    """Joint ``joint``'s limit dashes, interleaved with the other joints' so that equal limits all show."""
+    return 3.0 * joint, (3.0, 3.0 * max(joints - 1, 1))
+
+
 def _draw_column(axes, column: ProfileColumn, limits: JointLimits, colours: list[str], rate_hz: float) -> list:
     """Draw ``column`` into four axes (position .. jerk); returns the joints' profile lines (one per joint)."""
     trajectory = column.trajectory
@@ -71,10 +76,10 @@ def _draw_column(axes, column: ProfileColumn, limits: JointLimits, colours: list
         for j in range(joints):
             colour = colours[j % len(colours)]
             lines += axis.plot(times, np.rad2deg(values[k, :, j]), color=colour, linewidth=1.4)
-            dashes = (3.0 * j, (3.0, 3.0 * max(joints - 1, 1)))  # interleaved with the other joints'
             for bound in (bounds[k][0][j], bounds[k][1][j]):
                 if np.isfinite(bound):
-                    axis.axhline(np.rad2deg(bound), color=colour, linestyle=dashes, linewidth=0.9, alpha=0.8)
+                    axis.axhline(np.rad2deg(bound), color=colour, linestyle=_dashes(j, joints), linewidth=0.9,
+                                 alpha=0.8)
             if k == 0 and column.points is not None:
                 point_times, positions = column.points
                 axis.plot(point_times, np.rad2deg(positions[:, j]), "o", color=colour, markeredgecolor="black",
@@ -105,8 +110,7 @@ def _draw_torques(axis, trajectory: PiecewisePolynomial, torques: Callable[[np.n
         colour = colours[j % len(colours)]
         axis.plot(times, values[:, j], color=colour, linewidth=1.4)
         for bound in (-limit[j], limit[j]):
-            axis.axhline(bound, color=colour, linestyle=(3.0 * j, (3.0, 3.0 * max(joints - 1, 1))), linewidth=0.9,
-                         alpha=0.8)
+            axis.axhline(bound, color=colour, linestyle=_dashes(j, joints), linewidth=0.9, alpha=0.8)
     axis.set_ylabel("torque [N m]")
     axis.set_xlabel("time [s]")
     axis.grid(alpha=0.3)

@@ -637,8 +637,8 @@ def test_derivative_plots_show_their_limits_and_labelled_ticks(limit_deg, top_de
     """The range holds the limits with a margin, and reaches the next power of ten when just short of it
     (the plots label power-of-ten ticks only: +-95 would show a lone 0)."""
     from planner.recording import _symmetric_range
-    values = np.deg2rad(np.array([[0.5 * limit_deg, -0.2 * limit_deg]]))
-    low, high = _symmetric_range(values, np.deg2rad([limit_deg, limit_deg / 2]))
+    values = np.array([[0.5 * limit_deg, -0.2 * limit_deg]])
+    low, high = _symmetric_range(values, np.array([limit_deg, limit_deg / 2]))
     assert low == -high and high == pytest.approx(top_deg)
 
 
