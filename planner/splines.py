@@ -332,6 +332,16 @@ def hermite7(start: np.ndarray, end: np.ndarray, h: np.ndarray) -> np.ndarray:
     return np.concatenate((scaled_start, high), axis=-1) / power
 
 
+#: The hybrid family's first segment in normalised time: the cubic end segment
+#: y_0 + M_1 h^2 s^3 / 6 becomes y_0 + M_1 h^2 P(s), P the 7th-order polynomial from rest
+#: to the state (1/6, 1/2, 1, 1) of s^3 / 6 at s = 1. P, P' and P'' rise monotonically to
+#: 1/6, 1/2 and 1 at s = 1 (so the segment's speed and acceleration peak at its knot), and
+#: its jerk peaks inside: max P''' = 1.3869...
+HYBRID_END = hermite7(np.zeros(4), np.array([1 / 6, 1 / 2, 1.0, 1.0]), np.array(1.0))
+#: The last segment's shape P(1 - s): it is y_{n-1} + M h^2 P(1 - s), M the last virtual knot's acceleration.
+HYBRID_END_REFLECTED = np.polynomial.Polynomial(HYBRID_END)(np.polynomial.Polynomial([1.0, -1.0])).coef
+
+
 class HybridFamily(CubicFamily):
     """The paper's method: the ``cubic`` spline with 7th-order end segments.
 
@@ -343,6 +353,12 @@ class HybridFamily(CubicFamily):
     Note: the state matched includes the jerk of the cubic's own end segment,
     so at the virtual knots jerk jumps exactly as the cubic spline's does (C3
     there would need the neighbouring segment's jerk instead).
+
+    That state is (p_0 + h_0^2 M_1 / 6, h_0 M_1 / 2, M_1, M_1 / h_0), so the segment is
+    p_0 + M_1 h_0^2 P(s) (``HYBRID_END``), built from M_1 alone. Matching absolute
+    positions instead left only rounding noise of p_0 in the offset h_0^2 M_1 / 6 when
+    h_0 is tiny (an optimum can shrink an end segment to microseconds), and that noise,
+    divided by h_0^3, became jerk (3.8 times its limit on a 2 us segment).
     """
 
     name = "hybrid"
@@ -353,27 +369,13 @@ class HybridFamily(CubicFamily):
         batch, segments, joints, _ = cubic.shape
         coefficients = np.zeros((batch, segments, joints, 8))
         coefficients[..., :4] = cubic
-        h_first = durations[:, :1]
-        h_last = durations[:, -1:]
-        rest = np.zeros((batch, joints, 4))
-        first_start = rest.copy()
-        first_start[..., 0] = via_points[0]
-        last_end = rest.copy()
-        last_end[..., 0] = via_points[-1]
-        first_end = _cubic_state(cubic[:, 0], h_first)
-        last_start = _cubic_state(cubic[:, -1], np.zeros_like(h_last))
-        coefficients[:, 0] = hermite7(first_start, first_end, h_first)
-        coefficients[:, -1] = hermite7(last_start, last_end, h_last)
+        # (end segment, its via-point, its shape, the segment that starts at its virtual knot: c_2 = M / 2)
+        for segment, via, shape, knot in ((0, 0, HYBRID_END, 1), (-1, -1, HYBRID_END_REFLECTED, -1)):
+            h = durations[:, segment]
+            acceleration = 2.0 * cubic[:, knot, :, 2:3]  # (B, J, 1)
+            coefficients[:, segment] = acceleration * (shape * h[:, None] ** 2 / powers(h, 8))[:, None, :]
+            coefficients[:, segment, :, 0] += via_points[via]
         return coefficients
-
-
-def _cubic_state(coefficients: np.ndarray, tau: np.ndarray) -> np.ndarray:
-    """(q, q', q'', q''') of cubics (..., J, 4) at local time ``tau`` (..., 1)."""
-    c0, c1, c2, c3 = np.moveaxis(coefficients, -1, 0)
-    return np.stack((c0 + tau * (c1 + tau * (c2 + tau * c3)),
-                     c1 + tau * (2.0 * c2 + 3.0 * tau * c3),
-                     2.0 * c2 + 6.0 * tau * c3,
-                     6.0 * c3), axis=-1)
 
 
 class QuinticFamily(SplineFamily):

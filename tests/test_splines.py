@@ -146,6 +146,23 @@ def test_hybrid_end_segments_take_the_cubic_state_including_jerk(paper_via):
     np.testing.assert_allclose(continuity_jumps(hybrid, 3), continuity_jumps(cubic, 3), atol=1e-9)
 
 
+def test_hybrid_microsecond_end_segments_keep_their_jerk():
+    """Ends of 2 us beside via-points at 2.9 rad: each end's jerk, sampled densely, is
+    HYBRID_END_JERK |M| / h of its virtual knot's acceleration M (the NLP's constraint). Built
+    from absolute positions, the rounding noise of 2.9 rad divided by h^3 read as jerk (3.8
+    times the true peak on an optimum's 2 us end segment)."""
+    from planner.timing.formulations import HYBRID_END_JERK
+    via = np.array([[2.9, -2.8], [2.5, -2.2], [2.95, -2.9], [2.7, -2.85]])
+    h = np.array([2e-6, 1.3, 0.7, 1.1, 3e-6])
+    hybrid = get_family("hybrid").build(via, h)
+    knot_acceleration = 2.0 * get_family("cubic").build(via, h).coefficients[[1, -1], :, 2]
+    for end, segment in enumerate((0, len(h) - 1)):
+        start = hybrid.knot_times[segment]
+        jerk = hybrid.evaluate(start + h[segment] * np.linspace(0.0, 1.0, 2001), 3)
+        expected = HYBRID_END_JERK * np.abs(knot_acceleration[end]) / h[segment]
+        np.testing.assert_allclose(np.abs(jerk).max(axis=0), expected, rtol=1e-6)
+
+
 def test_batch_equals_single_builds(paper_via):
     rng = np.random.default_rng(3)
     durations = rng.uniform(0.5, 5, (7, 9))

@@ -27,14 +27,7 @@ from typing import Any
 import numpy as np
 
 from ..limits import JointLimits
-from ..splines import SplineFamily, derivative_coefficients, hermite7
-
-#: The hybrid family's end segment in normalised time: the cubic end segment
-#: y_0 + M_1 h^2 s^3 / 6 becomes y_0 + M_1 h^2 P(s), P the 7th-order polynomial from rest
-#: to the state (1/6, 1/2, 1, 1) of s^3 / 6 at s = 1. P, P' and P'' rise monotonically to
-#: 1/6, 1/2 and 1 at s = 1 (so the segment's speed and acceleration peak at its knot), and
-#: its jerk peaks inside: max P''' = 1.3869...
-HYBRID_END = hermite7(np.zeros(4), np.array([1 / 6, 1 / 2, 1.0, 1.0]), np.array(1.0))
+from ..splines import HYBRID_END, HYBRID_END_REFLECTED, SplineFamily, derivative_coefficients, hermite7
 
 
 def _peak(coefficients: np.ndarray) -> float:
@@ -258,13 +251,11 @@ class CubicFormulation(SplineFormulation):
     def _hybrid_ends(self, ca, h, acceleration, segments: int) -> list:
         """Normalised coefficients (2, J) of the hybrid's two 7th-order end segments."""
         via = self.via_points
-        reflected = np.polynomial.Polynomial(HYBRID_END)(np.polynomial.Polynomial([1.0, -1.0])).coef
-        reflected = np.pad(reflected, (0, len(HYBRID_END) - len(reflected)))
         gain = ca.vertcat(h[0] ** 2 * acceleration[0, :], h[segments - 1] ** 2 * acceleration[-1, :])
         start = _columns(ca, np.vstack((via[0], via[-1])))
         coefficients = []
         for i in range(len(HYBRID_END)):
-            shape = ca.repmat(ca.DM([HYBRID_END[i], reflected[i]]), 1, self.joint_count)
+            shape = ca.repmat(ca.DM([HYBRID_END[i], HYBRID_END_REFLECTED[i]]), 1, self.joint_count)
             coefficients.append(shape * gain + start if i == 0 else shape * gain)
         return coefficients
 
