@@ -54,8 +54,8 @@ def map_forked_until(function: Callable[[Item], Result], items: Sequence[Item], 
                      deadline: float) -> list[Result | None]:
     """``map_forked`` that stops at ``deadline`` (a ``time.monotonic()`` time [s]): every share runs in
     a child and the caller only waits; children not done by then are ended and their items' results
-    are None (a library call cannot be stopped halfway in the calling process; a child can). With one
-    worker or without ``fork``, everything runs here and the deadline is not enforced."""
+    are None (a library call cannot be stopped halfway in the calling process; a child can). Without
+    ``fork``, everything runs here and the deadline is not enforced."""
     results = _map(function, items, workers, deadline)
     return [results.get(i) for i in range(len(items))]
 
@@ -65,7 +65,7 @@ def _map(function: Callable[[Item], Result], items: Sequence[Item], workers: int
     """The results by item index (``map_forked``, ``map_forked_until``: those done by the deadline)."""
     workers = min(workers or core_count(), len(items))
     context = _fork_context()
-    if workers <= 1 or context is None:
+    if context is None or (workers <= 1 and deadline is None):
         return {i: function(item) for i, item in enumerate(items)}
     shares = [list(range(w, len(items), workers)) for w in range(workers)]
     children: list = []

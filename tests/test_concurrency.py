@@ -87,7 +87,7 @@ def test_concurrent_nlp_starts_match_serial_ones(monkeypatch):
     concurrent = optimize(problem, "nlp")
     assert serial.feasible and len(serial.starts) == 2
     assert (serial.settings["nlp"]["processes"], concurrent.settings["nlp"]["processes"]) == (1, 2)
-    assert serial.settings["starts"] == ["rest-to-rest", "cruise"]
+    assert serial.settings["starts"] == ["cruise", "stop-at-turns"]
     assert serial.settings["nlp"]["ipopt"]["tol"] == nlp.IPOPT_OPTIONS["ipopt.tol"]
     np.testing.assert_array_equal(serial.durations, concurrent.durations)
     assert [(s.label, s.objective, s.iterations, s.status) for s in serial.starts] == \

@@ -10,7 +10,7 @@ from planner import JointLimits, get_family, kinematic_figures, paper
 from planner.timing import TimingProblem, optimize
 from planner.timing.formulations import FORMULATIONS, HYBRID_END, HYBRID_END_JERK, Scales
 from planner.timing.nlp import TimingNLP, cubic_certificate, quadratic_certificate, touch_certificate
-from planner.timing.starts import chord_segments, start_shapes
+from planner.timing.starts import chord_segments, recombined, start_shapes
 
 FAMILIES = ("cubic", "hybrid", "quintic")
 
@@ -236,6 +236,57 @@ def test_start_shapes_cover_every_chord(paper_via, paper_limits):
             assert shape.shape == (problem.segment_count,) and np.all(shape > 0)
 
 
+def test_stop_at_turns_cruises_only_where_a_joint_keeps_its_direction():
+    """Chord by chord, joint by joint, by explicit loops: D / V where the joint moves the same way on the
+    chords before and after (none before the first or after the last), else its rest-to-rest time."""
+    via = np.array([[0.0, 0.0], [1.0, 0.1], [2.0, 0.05], [3.0, 0.05], [2.0, 0.5], [1.5, 0.9]])
+    limits = JointLimits.create(2, velocity=[1.0, 0.5], acceleration=[2.0, 4.0], jerk=[10.0, 30.0])
+    problem = TimingProblem(via, "hermite7", limits)  # one segment per chord
+    expected = []
+    for c in range(len(via) - 1):
+        times = []
+        for j in range(2):
+            sign = np.sign(via[c + 1, j] - via[c, j])
+            before = np.sign(via[c, j] - via[c - 1, j]) if c > 0 else 0.0
+            after = np.sign(via[c + 2, j] - via[c + 1, j]) if c + 2 < len(via) else 0.0
+            distance = abs(via[c + 1, j] - via[c, j])
+            v, a, jk = limits.velocity[j], limits.acceleration[j], limits.jerk[j]
+            rest = max(distance / v, 2 * np.sqrt(distance / a), np.cbrt(32 * distance / jk))
+            times.append(distance / v if before == sign == after else rest)
+        expected.append(max(times))
+    shapes = start_shapes(problem)
+    np.testing.assert_allclose(shapes["stop-at-turns"], expected, rtol=1e-12)
+    np.testing.assert_allclose(shapes["cruise"], (np.abs(np.diff(via, axis=0)) / limits.velocity).max(axis=1),
+                               rtol=1e-12)
+    assert expected[1] == pytest.approx(1.0)  # joint 0 passes via-points 1 and 2 at speed; joint 1 turns, sooner
+
+
+def test_recombined_takes_each_differing_region_from_the_shorter_solution():
+    first = np.ones(20)
+    second = first.copy()
+    second[2], second[12] = 0.5, 1.8  # shorter around segment 2, longer around 12
+    expected = first.copy()
+    expected[2] = 0.5
+    np.testing.assert_array_equal(recombined([second, first]), expected)
+    np.testing.assert_array_equal(recombined([first, second]), expected)
+    third = first.copy()
+    third[11:14] = [0.7, 0.7, 0.7]  # overlaps second's region around 12, and is shorter there
+    expected[11:14] = 0.7
+    np.testing.assert_array_equal(recombined([first, second, third]), expected)
+    assert recombined([first, first * (1 + 1e-6)]) is None and recombined([first]) is None
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.lists(st.lists(st.floats(0.1, 10.0), min_size=12, max_size=12), min_size=2, max_size=4))
+def test_recombined_is_never_longer_and_takes_only_given_durations(rows):
+    solutions = [np.array(row) for row in rows]
+    result = recombined(solutions)
+    if result is None:
+        return
+    assert result.sum() <= min(s.sum() for s in solutions) + 1e-9
+    assert all(any(value == s[k] for s in solutions) for k, value in enumerate(result))
+
+
 def test_solver_reports_its_rounds(paper_via, paper_limits):
     problem = TimingProblem(paper_via, "hybrid", paper_limits)
     start = problem.evaluate(np.ones((1, problem.segment_count))).durations[0]
@@ -296,8 +347,9 @@ def test_clipped_random_walk_every_start_converges(paper_limits, count, seed):
     assert np.isclose(via, ranges.lower).any() and np.isclose(via, ranges.upper).any()
     problem = TimingProblem(via, "hybrid", paper_limits)
     result = optimize(problem)
-    assert [s.label for s in result.starts] == ["rest-to-rest", "cruise"]
-    assert [s.status for s in result.starts] == ["Solve_Succeeded"] * 2
+    assert [s.label for s in result.starts][:2] == ["cruise", "stop-at-turns"]
+    assert all(s.status == "Solve_Succeeded" for s in result.starts)
+    assert result.total_time == pytest.approx(min(s.objective for s in result.starts), rel=1e-12)
     assert result.feasible and all(s.feasible for s in result.starts)
     assert kinematic_figures(problem.trajectory(result.durations)).violations(paper_limits) == []
     assert_limits_hold_when_sampled(problem, result.durations)

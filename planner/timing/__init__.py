@@ -24,7 +24,7 @@ def shape_starts(problem: TimingProblem, *, seed: int | None = None,
     shapes = start_shapes(problem)
     nlp_refine(problem, shapes, tracker)
     tracker.end_iteration()
-    return tracker.result("nlp", f"NLP from {len(tracker.starts)} shapes", None,
+    return tracker.result("nlp", f"NLP from {len(shapes)} shapes", None,
                           {"starts": list(shapes), "nlp": nlp_settings(problem, len(shapes))})
 
 

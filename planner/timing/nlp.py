@@ -82,6 +82,7 @@ from ..native_output import stderr_captured
 from .formulations import FORMULATIONS, Scales, SegmentBlock
 from .problem import TimingProblem
 from .result import SearchTracker, StartReport, remaining_time
+from .starts import recombined
 
 log = logging.getLogger(__name__)
 
@@ -526,30 +527,49 @@ def nlp_settings(problem: TimingProblem, starts: int) -> dict:
 
 
 def nlp_refine(problem: TimingProblem, starts: dict[str, np.ndarray], tracker: SearchTracker) -> None:
-    """Solve the sparse NLP from each named start (S,) [s] and offer the repaired results.
+    """Solve the sparse NLP from each named start (S,) [s], then from their recombination, and offer
+    the repaired results.
 
     Every start is first repaired (``TimingProblem.evaluate``: feasible and
     tight), so the tracker holds a feasible candidate even if a solve fails.
-    One ``TimingNLP``, scaled by the best repaired start, serves them all; a
+    One ``TimingNLP``, scaled by the best repaired start, serves them all. Where
+    the solved starts differ, the NLP solves once more from their recombination
+    (``starts.recombined``), reported as the start ``recombined``. A
     ``StartReport`` per start goes to ``tracker.starts``.
     """
     labels = list(starts)
     repaired = tracker.evaluate(np.array([starts[label] for label in labels]))
     nlp = TimingNLP(problem, repaired.durations[int(np.argmin(repaired.objective))])
     nlp.blocks  # builds the program without certificates once, before any process forks
-    processes, remaining = _processes(problem, len(labels)), remaining_time()
-    solved = map_forked(nlp.solve, list(repaired.durations), processes) if remaining is None else \
-        map_forked_until(nlp.solve, list(repaired.durations), processes, time.monotonic() + remaining)
-    outcomes = [NLPOutcome(start, 0, 0, OUT_OF_TIME, 0) if outcome is None else outcome
-                for start, outcome in zip(repaired.durations, solved)]
-    for label, outcome in zip(labels, outcomes):
-        result = (tracker.evaluate(outcome.durations[None]) if outcome.states is None
-                  else tracker.evaluate_states(outcome.durations[None], outcome.states[None]))
-        tracker.starts.append(StartReport(label, float(result.objective[0]), bool(result.feasible[0]),
-                                          outcome.iterations, outcome.rounds, outcome.status,
-                                          outcome.certificates))
-        report = tracker.starts[-1]
-        (log.info if report.status in SOLVED and report.feasible else log.warning)(
-            "start %s: objective %.9g, %s, IPOPT %s, %d iterations in %d rounds, %d certificates", label,
-            report.objective, "feasible" if report.feasible else "INFEASIBLE", report.status, report.iterations,
-            report.rounds, report.certificates)
+    solved = [_report(tracker, label, outcome)
+              for label, outcome in zip(labels, _solve_all(nlp, list(repaired.durations)))]
+    start = recombined([durations for durations, report in solved if report.status in SOLVED and report.feasible])
+    if start is not None:
+        _report(tracker, "recombined", _solve_all(nlp, list(tracker.evaluate(start[None]).durations))[0])
+
+
+def _solve_all(nlp: TimingNLP, starts: list[np.ndarray]) -> list[NLPOutcome]:
+    """``nlp.solve`` from each start (S,) [s]: from ``CONCURRENT_SEGMENTS`` on, one process each, ended at
+    the time limit (an outcome ``OUT_OF_TIME`` at its start; IPOPT's own limit is checked only between
+    iterations); below, one after another here."""
+    processes, remaining = _processes(nlp.problem, len(starts)), remaining_time()
+    if remaining is None or nlp.problem.segment_count < CONCURRENT_SEGMENTS:
+        return map_forked(nlp.solve, starts, processes)
+    solved = map_forked_until(nlp.solve, starts, processes, time.monotonic() + remaining)
+    return [NLPOutcome(start, 0, 0, OUT_OF_TIME, 0) if outcome is None else outcome
+            for start, outcome in zip(starts, solved)]
+
+
+def _report(tracker: SearchTracker, label: str, outcome: NLPOutcome) -> tuple[np.ndarray, StartReport]:
+    """Repair and offer ``outcome`` to ``tracker``, log it and add its ``StartReport``; returns the
+    repaired durations (S,) [s] and the report."""
+    result = (tracker.evaluate(outcome.durations[None]) if outcome.states is None
+              else tracker.evaluate_states(outcome.durations[None], outcome.states[None]))
+    report = StartReport(label, float(result.objective[0]), bool(result.feasible[0]), outcome.iterations,
+                         outcome.rounds, outcome.status, outcome.certificates)
+    tracker.starts.append(report)
+    (log.info if report.status in SOLVED and report.feasible else log.warning)(
+        "start %s: objective %.9g, %s, IPOPT %s, %d iterations in %d rounds, %d certificates", label,
+        report.objective, "feasible" if report.feasible else "INFEASIBLE", report.status, report.iterations,
+        report.rounds, report.certificates)
+    return result.durations[0], report
