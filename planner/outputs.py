@@ -22,8 +22,11 @@ before any work is done:
   and new files. The current working folder and mount points cannot be
   renamed: outputs go into them one file at a time.
 * While a plan runs, ``DIR`` is locked (``flock`` on ``.DIR.lock`` beside it):
-  a second writer fails at once instead of interleaving. Staging folders of a
-  killed run (``.DIR.staging-*``) are removed by the next run that takes the lock.
+  a second writer fails at once instead of interleaving. The lock file is the
+  planner's only while empty: one holding data is refused, not taken over. Staging
+  folders of a killed run are removed by the next run that takes the lock: only
+  folders named ``.DIR.staging-`` and 8 hex digits, matched literally, that hold the
+  file ``.planner-staging`` every staging folder gets when it is made.
 * On any failure or interruption (an exception, Ctrl-C, SIGTERM turned into an
   exception by the CLI) the staging folder, and any parent folder made for the
   run, is deleted and ``DIR`` is left as it was.
@@ -38,6 +41,7 @@ import json
 import os
 import secrets
 import shutil
+import stat
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterable, Iterator
@@ -46,6 +50,10 @@ from .errors import OutputError, shown
 from .interrupts import check as check_interrupted
 
 MARKER = ".planner-output"
+#: In every staging folder from its creation until publishing: a later run removes only folders holding it.
+STAGING_MARKER = ".planner-staging"
+#: A staging folder is named ``.DIR.staging-`` and this many random hex digits.
+_STAGING_DIGITS = 8
 _RENAME_EXCHANGE = 2
 _AT_FDCWD = -100
 
@@ -138,8 +146,8 @@ def _check_folder(folder: Path, force: bool) -> tuple[Path, bool]:
     if not os.access(folder, os.W_OK | os.X_OK):
         raise OutputError(f"output folder {folder} is not writable")
     present = _listing(folder)
-    owned = _planner_files(folder)
-    foreign = present - {MARKER} - (owned or set())
+    owned = _planner_files(folder)  # None: no marker, or a marker that is not the planner's (a folder, say)
+    foreign = present - (owned or set()) - ({MARKER} if owned is not None else set())
     if foreign and not force:
         names = ", ".join(sorted(foreign)[:5]) + (", ..." if len(foreign) > 5 else "")
         raise OutputError(f"output folder {folder} holds files the planner did not write ({shown(names)}); "
@@ -171,6 +179,11 @@ class _Lock:
             except FileNotFoundError:
                 same = False
             if same:
+                held = os.fstat(handle)
+                if not stat.S_ISREG(held.st_mode) or held.st_size:  # a planner's lock file is always empty
+                    os.close(handle)
+                    raise OutputError(f"{shown(str(self.path))} is not a planner lock file (it holds data); "
+                                      f"move it away or choose another output folder")
                 self.handle = handle
                 return
             os.close(handle)
@@ -238,6 +251,21 @@ def _publish_in_place(staging: Path, folder: Path, stale: set[str]) -> None:
     os.replace(staging / MARKER, folder / MARKER)
 
 
+def _stale_staging(place: Path, name: str) -> list[Path]:
+    """The staging folders of output folder ``name`` that a killed run left in ``place``: named
+    ``.NAME.staging-`` and ``_STAGING_DIGITS`` hex digits (compared literally: ``name`` may hold glob
+    characters), real folders, holding ``STAGING_MARKER``."""
+    prefix = f".{name}.staging-"
+    try:
+        entries = list(place.iterdir())
+    except OSError:
+        return []
+    return [entry for entry in entries
+            if entry.name.startswith(prefix) and len(entry.name) == len(prefix) + _STAGING_DIGITS
+            and all(c in "0123456789abcdef" for c in entry.name[len(prefix):])
+            and entry.is_dir() and not entry.is_symlink() and (entry / STAGING_MARKER).is_file()]
+
+
 def _write_marker(staging: Path) -> set[str]:
     files = sorted(entry.name for entry in staging.iterdir())
     (staging / MARKER).write_text(json.dumps({"written_by": "planner", "files": files}) + "\n")
@@ -271,23 +299,25 @@ def output_folder(path, *, force: bool = False, files: Iterable[str] = ()) -> It
     staging, published = None, False
     try:
         stale_places = [folder.parent] + ([folder] if folder.is_dir() else [])  # beside it, or inside (--force)
-        for stale in (found for place in stale_places for found in place.glob(f".{folder.name}.staging-*")):
+        for stale in (found for place in stale_places for found in _stale_staging(place, folder.name)):
             shutil.rmtree(stale, ignore_errors=True)
         folder, in_place = check_output_folder(folder, force=force)  # again, now that we hold the lock
         if in_place and folder.exists():
             _check_no_folder_in_the_way(folder, files)
         base = folder if in_place and folder.exists() else folder.parent
-        staging = base / f".{folder.name}.staging-{secrets.token_hex(4)}"
+        staging = base / f".{folder.name}.staging-{secrets.token_hex(_STAGING_DIGITS // 2)}"
         try:
             os.mkdir(staging, 0o777)  # the umask applies, as to any folder the user makes
         except OSError as exc:
             staging = None
             raise OutputError(f"output folder {folder}: cannot write there ({exc.strerror or exc})") from None
+        (staging / STAGING_MARKER).touch()
         yield staging
         check_interrupted()  # an interruption a library swallowed must not publish half a run
         # Again: while this run worked, another may have written into DIR (its own --out DIR/sub, say);
         # swapping DIR out whole would delete that. Refused now, or (--force) merged file by file.
         in_place = in_place or check_output_folder(folder, force=force)[1]
+        (staging / STAGING_MARKER).unlink()
         written = _write_marker(staging)
         if in_place:
             folder.mkdir(exist_ok=True)

@@ -14,7 +14,7 @@ import yaml
 import planner.outputs as outputs
 from planner.cli import main
 from planner.errors import OutputError
-from planner.outputs import MARKER, atomic_file, output_folder
+from planner.outputs import MARKER, STAGING_MARKER, atomic_file, output_folder
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_JOINT = ROOT / "scripts" / "tasks" / "puma560_paper_joint.yaml"
@@ -135,6 +135,7 @@ def test_staging_left_inside_a_forced_folder_by_a_killed_run_is_removed_by_the_n
     out.mkdir()
     (out / "thesis.tex").write_text("keep me")
     (out / ".results.staging-0badc0de").mkdir()  # what a SIGKILL during a --force run leaves
+    (out / ".results.staging-0badc0de" / STAGING_MARKER).touch()
     write_outputs(out, {"summary.json": "new"}, force=True)
     assert sorted(p.name for p in out.iterdir()) == [MARKER, "summary.json", "thesis.tex"]
 
@@ -249,9 +250,47 @@ def test_a_second_writer_is_refused_while_the_first_holds_the_folder(tmp_path, t
 def test_staging_left_by_a_killed_run_is_removed_by_the_next(tmp_path):
     stale = tmp_path / ".out.staging-deadbeef"
     stale.mkdir()
+    (stale / STAGING_MARKER).touch()
     (stale / "half.csv").write_text("1,2")
     write_outputs(tmp_path / "out", {"a.txt": "1"})
     assert leftovers(tmp_path) == []
+
+
+@pytest.mark.parametrize("name", [".out.staging-mine", ".out.staging-deadbeef", ".out.staging-deadbeef0"])
+def test_a_folder_named_like_staging_is_kept_unless_the_planner_made_it(tmp_path, name):
+    """Only ``.out.staging-`` and 8 hex digits holding the staging marker is a killed run's: a user's
+    folder of a similar name, or of that name without the marker, is kept with its files."""
+    mine = tmp_path / name
+    mine.mkdir()
+    (mine / "notes.txt").write_text("keep me")
+    write_outputs(tmp_path / "out", {"a.txt": "1"})
+    assert (mine / "notes.txt").read_text() == "keep me"
+
+
+def test_an_output_folder_name_is_not_a_glob_pattern(tmp_path):
+    """``--out 'o[u]'`` must not match, and delete, the staging folder of a run writing ``ou``."""
+    other = tmp_path / ".ou.staging-12345678"
+    other.mkdir()
+    (other / STAGING_MARKER).touch()
+    write_outputs(tmp_path / "o[u]", {"a.txt": "1"})
+    assert other.is_dir() and (tmp_path / "o[u]" / "a.txt").read_text() == "1"
+
+
+def test_a_marker_that_is_a_folder_is_not_the_planners(tmp_path):
+    out = tmp_path / "out"
+    (out / MARKER).mkdir(parents=True)
+    (out / MARKER / "notes.txt").write_text("keep me")
+    with pytest.raises(OutputError, match="did not write"):
+        write_outputs(out, {"a.txt": "1"})
+    assert (out / MARKER / "notes.txt").read_text() == "keep me"
+
+
+def test_a_lock_file_holding_data_is_refused_and_kept(tmp_path):
+    lock = tmp_path / ".out.lock"
+    lock.write_text("my data")
+    with pytest.raises(OutputError, match="not a planner lock file"):
+        write_outputs(tmp_path / "out", {"a.txt": "1"})
+    assert lock.read_text() == "my data" and not (tmp_path / "out").exists()
 
 
 def test_sigterm_while_planning_cleans_up_and_exits_143(tmp_path, task):
