@@ -291,8 +291,10 @@ def turn_variants(robot: Robot, q: np.ndarray, limits: JointLimits) -> np.ndarra
     options = _turn_options(robot, q, limits)
     if not all(len(values) for values in options):
         return np.zeros((0, robot.dof))
-    grids = np.meshgrid(*options, indexing="ij")
-    return np.stack([g.ravel() for g in grids], axis=1)
+    variants = np.zeros((1, 0))
+    for values in options:  # the product, last joint fastest (numpy's meshgrid stops at 32 joints)
+        variants = np.hstack((np.repeat(variants, len(values), axis=0), np.tile(values, len(variants))[:, None]))
+    return variants
 
 
 def _distinct(robot: Robot, q: np.ndarray, others: list[IKSolution]) -> bool:

@@ -128,6 +128,10 @@ class Robot:
         if failure is not None:
             problem = _negative_limit(path) or f"{_first_line(str(failure))}{_detail(parser_log)}"
             raise RobotFileError(f"cannot load URDF {path}: {problem}", path=path) from None
+        swallowed = "Could not parse" in "".join(parser_log)  # the parser logs a bad <inertial> and goes on
+        problem = _bad_mass(path) or (f"an element the URDF parser skipped{_detail(parser_log)}" if swallowed else "")
+        if problem:
+            raise RobotFileError(f"cannot load URDF {path}: {problem}", path=path)
         extra = _read_limit_file(path.with_suffix(".limits.yaml"), model)
         return cls._build(model.name or path.stem, model, tool_frame, path, tuple(package_dirs), extra)
 
@@ -263,6 +267,22 @@ def _negative_limit(urdf_path: Path) -> str:
                 if negative:
                     return (f"joint {shown(joint.get('name'), 60)}: <limit {attribute}> must be >= 0, got "
                             f"{shown(limit.get(attribute), 40)}")
+    return ""
+
+
+def _bad_mass(urdf_path: Path) -> str:
+    """The first link whose ``<inertial><mass value>`` is not a finite number >= 0, as ``link 'l2':
+    <mass value> must be a finite number >= 0, got 'nan'``; '' if none. Pinocchio's parser leaves a link
+    of unreadable mass massless and takes a negative one as it is, so the torques would be wrong."""
+    for link in _urdf_elements(urdf_path, "link"):
+        for mass in link.findall("inertial/mass"):
+            try:
+                valid = math.isfinite(float(mass.get("value", ""))) and float(mass.get("value", "")) >= 0
+            except ValueError:
+                valid = False
+            if not valid:
+                return (f"link {shown(link.get('name'), 60)}: <mass value> must be a finite number >= 0, got "
+                        f"{shown(mass.get('value'), 40)}")
     return ""
 
 

@@ -76,7 +76,9 @@ _LIMIT_KEY_OF = {**{name: key for key, name in _LIMIT_KEYS.items()}, "lower": PR
 _COMMON_OPTIMIZER_KEYS = ("algorithm", "seed", "bounds_s", "objective", "weights", "time_limit_s")
 #: Default wall-time limit of the timing optimization [s]: past it, the best timing found so far is kept.
 TIME_LIMIT_S = 120.0
-_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f]")
+#: Characters no name or label may hold: control characters, and those that move or reorder the text around
+#: them (line and paragraph separators U+2028, U+2029; bidirectional overrides such as U+202E).
+_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029\u200e\u200f\u202a-\u202e\u2066-\u2069]")
 
 
 @dataclass(frozen=True)
@@ -331,7 +333,8 @@ def _text(value, path: str) -> str:
     if not isinstance(value, str) or not value:
         raise TaskError(path, f"must be a non-empty string, got {shown(value)}")
     if _CONTROL.search(value):
-        raise TaskError(path, f"must not contain control characters, got {shown(value)}")
+        raise TaskError(path, f"must not contain control characters (nor line separators or bidirectional "
+                              f"overrides), got {shown(value)}")
     try:
         value.encode("utf-8")
     except UnicodeEncodeError:  # a lone surrogate (a YAML escape such as "\ud800"): no file or figure can hold it
@@ -590,7 +593,14 @@ def parse_task(data, *, name: str = "task", source: Path | None = None) -> Task:
     if optimizer["bounds"] is not None and min_segment > optimizer["bounds"][1]:
         raise TaskError("trajectory.min_segment_s", f"{min_segment:g} s exceeds the upper duration bound "
                                                     f"optimizer.bounds_s[1] = {optimizer['bounds'][1]:g} s")
-    label = _text(document["name"], "name") if "name" in document else name
+    if "name" in document:
+        label = _text(document["name"], "name")
+    else:
+        try:
+            label = _text(name, "name")
+        except TaskError as exc:  # the file's name: a byte that is no UTF-8, an escape sequence, ...
+            raise TaskError("name", f"is not given, so it would be the task file's name, which {exc.problem}; "
+                                    f"add a name: key to the task") from None
     if len(label) > MAX_NAME_CHARS:
         raise TaskError("name", f"must be at most {MAX_NAME_CHARS} characters (it titles figures and files), "
                                 f"got {len(label)}")

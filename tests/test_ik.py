@@ -206,6 +206,24 @@ def test_turn_variants_cover_every_turn_in_range(puma):
     assert len(turn_variants(puma, q, narrow)) == 0  # joint 1 at 10 deg is below 20 deg, in every turn
 
 
+def test_turn_variants_of_a_34_joint_chain(tmp_path):
+    """Every product of the joints' turns in range, last joint fastest (as itertools.product), beyond
+    the 32 dimensions numpy's meshgrid takes (a 33-joint arm was an internal error)."""
+    joints = 34
+    links = "".join(f'<link name="l{i}"/>' for i in range(joints + 1))
+    chain = "".join(f'<joint name="j{i}" type="revolute"><parent link="l{i}"/><child link="l{i + 1}"/>'
+                    f'<origin xyz="0 0 0.05"/><axis xyz="0 {i % 2} {(i + 1) % 2}"/>'
+                    f'<limit lower="{-6.0 if i in (3, 30) else -1.0}" upper="{4.0 if i in (3, 30) else 1.0}" '
+                    f'velocity="1" effort="1"/></joint>' for i in range(joints))
+    urdf = tmp_path / "chain.urdf"
+    urdf.write_text(f'<robot name="chain">{links}{chain}</robot>')
+    robot = Robot.from_urdf(urdf, f"l{joints}")
+    q = np.full(joints, 0.5)
+    variants = turn_variants(robot, q, robot.limits)
+    expected = list(itertools.product(*[[0.5 - 2 * np.pi, 0.5] if j in (3, 30) else [0.5] for j in range(joints)]))
+    np.testing.assert_allclose(variants, np.array(expected))
+
+
 def test_ranges_so_wide_that_the_turns_outnumber_the_branch_budget_are_refused_naming_the_joints():
     """UR5 ranges of +-600 deg give each of a pose's 8 solutions about 4^6 turn variants: more than the
     optimal rule's dynamic programme can hold (it needed 48 GB at +-720 deg). Refused at once, naming

@@ -330,6 +330,19 @@ def test_a_negative_urdf_limit_names_its_joint(tmp_path, attribute):
         Robot.from_urdf(puma_edited(tmp_path, first, edited))
 
 
+@pytest.mark.parametrize("mass", ["nan", "-5", "heavy", "inf"])
+def test_a_link_mass_that_is_no_finite_non_negative_number_names_the_link(tmp_path, mass):
+    """Pinocchio's parser logs an unreadable mass and leaves the link massless, and takes a negative one:
+    the torques would be computed for another robot."""
+    with pytest.raises(RobotFileError, match=rf"link 'link2': <mass value> must be a finite number >= 0, got '{mass}'"):
+        Robot.from_urdf(puma_edited(tmp_path, '<mass value="17.4"/>', f'<mass value="{mass}"/>'))
+
+
+def test_an_inertial_element_the_parser_skips_is_refused(tmp_path):
+    with pytest.raises(RobotFileError, match=r"an element the URDF parser skipped \(.*"):
+        Robot.from_urdf(puma_edited(tmp_path, 'ixx="0.13"', 'ixx="wide"'))
+
+
 def test_a_joint_without_an_axis_is_refused_and_a_long_axis_is_a_direction(tmp_path):
     """Pinocchio takes <axis xyz="0 0 0"/> and turns a rotation into a scaling; a non-unit axis is normalized."""
     with pytest.raises(RobotFileError, match=r"joint 'joint1' of robot 'puma560' .* has no axis to turn about"):

@@ -245,8 +245,26 @@ def test_undecodable_files_and_control_characters_are_refused(tmp_path, raw, mes
     assert_refused(lambda: load_task(task), message, str(task))
 
 
-def test_escaped_control_characters_in_strings_are_refused():
-    assert_refused(lambda: parse_task(joint_task(name="a\0b")), r"must not contain control characters", "name")
+@pytest.mark.parametrize("name", ["a\0b", "a\u2028b", "a\u202eb", "a\u2066b"])
+def test_escaped_control_characters_in_strings_are_refused(name):
+    """Control characters, and line separators and bidirectional overrides, which break or reverse the
+    line a name is printed on."""
+    assert_refused(lambda: parse_task(joint_task(name=name)), r"must not contain control characters", "name")
+
+
+@pytest.mark.parametrize("stem, message", [(b"bad_\xff", "must be valid Unicode text"),
+                                           (b"red_\x1b[31m", "must not contain control characters")])
+def test_a_file_name_that_cannot_name_the_task_asks_for_a_name_key(tmp_path, stem, message):
+    """Without ``name:`` the file's stem names the task; an undecodable byte or an escape sequence there
+    was used as is (an internal error writing the recording; raw escapes printed and written)."""
+    data = joint_task(name=...)
+    task = Path(os.fsdecode(os.path.join(os.fsencode(tmp_path), stem + b".yaml")))
+    task.write_text(yaml.safe_dump(data))
+    error = assert_refused(lambda: load_task(task), message, "name")
+    assert "add a name: key" in str(error)
+    data["name"] = "named"
+    task.write_text(yaml.safe_dump(data))
+    assert load_task(task).name == "named"
 
 
 @pytest.mark.parametrize("text", [
