@@ -180,6 +180,18 @@ class RobotLimitOutcome:
     slow_down: float
     check: RobotLimitCheck
 
+    def largest_ratios(self) -> dict[str, float]:
+        """The largest ratio to its limit of each limited quantity at the samples: ``torque`` (over the
+        joints), ``tool_speed``, ``tool_angular_speed``."""
+        check, ratios = self.check, {}
+        if check.torque is not None and self.torque_limit is not None:
+            ratios["torque"] = float((np.abs(check.torque) / self.torque_limit).max())
+        if check.tool_speed is not None and self.tool_speed is not None:
+            ratios["tool_speed"] = float(check.tool_speed.max()) / self.tool_speed
+        if check.tool_angular_speed is not None and self.tool_angular_speed is not None:
+            ratios["tool_angular_speed"] = float(check.tool_angular_speed.max()) / self.tool_angular_speed
+        return ratios
+
     def summary(self) -> dict[str, object]:
         """The largest |torque| per joint [N m] and its ratio to the limit, and the largest tool
         speeds and their ratios (for the limits given), the slow-down and the sampling."""

@@ -159,9 +159,10 @@ class PlanResult:
                  "joint_jump_deg": np.rad2deg(s.jump)} for i, s in enumerate(self.ik)]}
         if self.path is not None:
             options = self.task.path
+            tolerances = {"tolerance_m": options.tolerance_m, "tolerance_deg": np.rad2deg(options.tolerance_rad)} \
+                if options.mode == "linear" else {}  # joint mode does not follow lines: no tolerance applies
             summary["path"] = {
-                "mode": options.mode, "tolerance_m": options.tolerance_m,
-                "tolerance_deg": np.rad2deg(options.tolerance_rad), "rounds": self.path.rounds,
+                "mode": options.mode, **tolerances, "rounds": self.path.rounds,
                 "waypoint_via_index": self.path.waypoint_via,
                 "segments": [{"from_waypoint": i, "to_waypoint": i + 1, "inserted_poses": int(inserted),
                               "max_position_deviation_m": distance, "max_orientation_deviation_deg": np.rad2deg(angle)}
@@ -218,23 +219,35 @@ def _call(work: Callable[[], None]) -> None:
     work()
 
 
-def check_sample_count(task: Task, total_time: float, *, lower_bound: bool = False) -> None:
+def check_sample_count(task: Task, total_time: float, *, lower_bound: bool = False,
+                       slowed: RobotLimitOutcome | None = None) -> None:
     """Refuse a trajectory whose outputs at ``trajectory.sample_rate_hz`` would exceed ``MAX_SAMPLES`` samples.
 
     Args:
         total_time: the trajectory's duration [s], or (``lower_bound``) a lower bound on it,
             so that a hopeless task is refused before it is timed.
+        slowed: how the robot-aware limits slowed the trajectory down, if they did: then the error
+            names the limit that set the slow-down.
 
     Raises:
-        TaskError: naming ``trajectory.sample_rate_hz``, the duration and the sample count.
+        TaskError: naming ``trajectory.sample_rate_hz``, the duration and the sample count (or the
+            robot-aware limit that made the trajectory this long).
     """
     count = total_time * task.sample_rate_hz
-    if count >= MAX_SAMPLES:
-        what = "at least" if lower_bound else "the"
-        raise TaskError("trajectory.sample_rate_hz",
-                        f"{task.sample_rate_hz:g} Hz over {what} {total_time:.6g} s of trajectory makes {count:.3g} "
-                        f"samples per output, above the cap of {MAX_SAMPLES:,}; lower the rate or check the "
-                        f"limits and duration bounds (they make the trajectory this long)")
+    if count < MAX_SAMPLES:
+        return
+    what = "at least" if lower_bound else "the"
+    samples = (f"{task.sample_rate_hz:g} Hz over {what} {total_time:.6g} s of trajectory makes {count:.3g} samples "
+               f"per output, above the cap of {MAX_SAMPLES:,}")
+    if slowed is None or slowed.slow_down <= 1:
+        raise TaskError("trajectory.sample_rate_hz", f"{samples}; lower the rate or check the limits and duration "
+                                                     f"bounds (they make the trajectory this long)")
+    ratios = slowed.largest_ratios()
+    keys = {"torque": "limits.torque_nm", "tool_speed": "limits.tool_speed_m_s",
+            "tool_angular_speed": "limits.tool_speed_deg_s"}
+    binding = keys[max(ratios, key=ratios.__getitem__)]
+    raise TaskError(binding, f"slows the trajectory down {slowed.slow_down:.4g} times to meet it: {samples} "
+                             f"(trajectory.sample_rate_hz); raise the limit or lower the rate")
 
 
 def shortest_total_time(via: np.ndarray, limits: JointLimits, task: Task) -> float:
@@ -433,7 +446,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         if met.slow_down > 1:
             progress.note(f"slowed down {met.slow_down:.6g} times to meet the torque and tool-speed limits")
         timings["robot_limits"] = time.perf_counter() - start
-    check_sample_count(task, trajectory.total_time)
+    check_sample_count(task, trajectory.total_time, slowed=met)
     figures = kinematic_figures(trajectory)
     return PlanResult(task, via, limits, result, trajectory, figures, timings, robot, ik, path, branch_times, kept,
                       met)

@@ -478,6 +478,11 @@ def _path(value, path: str) -> PathOptions:
     section = _mapping(value, path, ("mode", "tolerance_m", "tolerance_deg"))
     mode = _choice(section.get("mode", "joint"), f"{path}.mode", PATH_MODES, "path mode")
     default = PathOptions()
+    for key in ("tolerance_m", "tolerance_deg"):
+        if key in section and mode != "linear":
+            raise TaskError(f"{path}.{key}", f"bounds the tool's deviation from straight lines, which only "
+                                             f"{path}.mode: linear follows (here {mode}): remove it, or set "
+                                             f"mode: linear")
     tolerance_m = _ranged(section["tolerance_m"], f"{path}.tolerance_m") \
         if "tolerance_m" in section else default.tolerance_m
     tolerance_rad = np.deg2rad(_ranged(section["tolerance_deg"], f"{path}.tolerance_deg")) \
@@ -520,6 +525,9 @@ def _optimizer(value, path: str) -> dict:
             result["objective"] = _choice(item, where, OBJECTIVES, "objective")
         else:
             settings[key] = _ranged(item, where)
+    if "weights" in section and result["objective"] != "time-jerk":
+        raise TaskError(f"{path}.weights", f"only the time-jerk objective has weights (here {path}.objective is "
+                                           f"{result['objective']}): remove them, or set objective: time-jerk")
     if "refine_starts" in settings and "nests" in settings and settings["refine_starts"] > settings["nests"]:
         raise TaskError(f"{path}.refine_starts", f"must be at most nests ({settings['nests']}), "
                                                  f"got {settings['refine_starts']}")
@@ -633,8 +641,9 @@ def task_document(task: Task) -> dict:
                 | ({"hint_deg": _degrees(w.hint)} if w.hint is not None else {}) for w in task.cartesian_waypoints]}
             document["ik"] = {"branch": task.ik.branch, "seed": task.ik.seed} | (
                 {"start_deg": _degrees(task.ik.start)} if task.ik.start is not None else {})
-            document["path"] = {"mode": task.path.mode, "tolerance_m": task.path.tolerance_m,
-                                "tolerance_deg": float(np.rad2deg(task.path.tolerance_rad))}
+            document["path"] = {"mode": task.path.mode} | ({"tolerance_m": task.path.tolerance_m,
+                                                            "tolerance_deg": float(np.rad2deg(task.path.tolerance_rad))}
+                                                           if task.path.mode == "linear" else {})
         elif task.joint_waypoints is not None:
             document["waypoints"] = {"joints_deg": _degrees(task.joint_waypoints)}
         else:
@@ -658,8 +667,8 @@ def task_document(task: Task) -> dict:
         settings = task.optimizer
         document["optimizer"] = {"algorithm": settings["algorithm"], "seed": settings["seed"],
                                  "time_limit_s": settings["time_limit"],
-                                 "objective": settings["objective"], "weights": list(settings["weights"]),
-                                 **settings["settings"]} | (
+                                 "objective": settings["objective"], **settings["settings"]} | (
+            {"weights": list(settings["weights"])} if settings["objective"] == "time-jerk" else {}) | (
             {"bounds_s": list(settings["bounds"])} if settings["bounds"] is not None else {})
     except (TypeError, ValueError, AttributeError, KeyError, IndexError) as exc:
         raise TaskError("", f"the Task holds values no task file could ({type(exc).__name__}: {exc}); "
@@ -737,4 +746,8 @@ def load_task(path) -> Task:
     if not os.fspath(path).strip():
         raise TaskError("", "the task file's path is empty (an unset shell variable?); give a path")
     path = Path(path)
-    return parse_task(read_yaml(path, "task file"), name=path.stem[:MAX_NAME_CHARS], source=path)
+    data = read_yaml(path, "task file")
+    if data is None:
+        raise TaskError(str(path), "the task file is empty (nothing but blanks and comments); a task starts "
+                                   "with version: 1 and gives waypoints:")
+    return parse_task(data, name=path.stem[:MAX_NAME_CHARS], source=path)

@@ -111,7 +111,7 @@ def test_straight_line_through_an_unreachable_region_fails_naming_the_segment():
 
 @pytest.mark.parametrize("section, message", [
     ({"path": {"mode": "curved"}}, "path.mode: unknown path mode"),
-    ({"path": {"tolerance_m": -1}}, "path.tolerance_m: must be >= 1e-05 and <= 1, got -1"),
+    ({"path": {"mode": "linear", "tolerance_m": -1}}, "path.tolerance_m: must be >= 1e-05 and <= 1, got -1"),
     ({"ik": {"branch": "any"}}, "ik.branch: unknown branch rule"),
     ({"ik": {"start_deg": [0, "a"]}}, r"ik.start_deg\[1\]: must be a number"),
 ])

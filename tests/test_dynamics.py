@@ -189,6 +189,14 @@ def test_gravity_beyond_a_torque_limit_names_the_joint_and_the_waypoint():
     assert abs(caught.value.value) > 10
 
 
+@pytest.mark.parametrize("key, value", [("tool_speed_m_s", 1e-6), ("tool_speed_deg_s", 1e-4)])
+def test_a_slow_down_too_long_to_sample_names_the_limit_that_set_it(key, value):
+    """It blamed the sample rate and the kinematic limits, which were fine."""
+    with pytest.raises(TaskError, match=rf"^limits\.{key}: slows the trajectory down [0-9.e+]+ times to meet it: "
+                                        r"100 Hz over the .* s of trajectory makes .* samples per output"):
+        plan(paper_task(**{key: value}))
+
+
 def test_robot_limits_need_a_robot_and_one_torque_per_joint(tmp_path):
     data = yaml.safe_load((ROOT / "scripts" / "tasks" / "puma560_paper_joint.yaml").read_text())
     data.pop("robot", None)

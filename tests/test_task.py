@@ -245,6 +245,12 @@ def test_undecodable_files_and_control_characters_are_refused(tmp_path, raw, mes
     assert_refused(lambda: load_task(task), message, str(task))
 
 
+@pytest.mark.parametrize("raw", [b"", b"# only a comment\n\n", b"---\n"])
+def test_an_empty_task_file_is_named_and_said_empty(tmp_path, raw):
+    task = write(tmp_path, raw)
+    assert_refused(lambda: load_task(task), "the task file is empty", str(task))
+
+
 @pytest.mark.parametrize("name", ["a\0b", "a\u2028b", "a\u202eb", "a\u2066b"])
 def test_escaped_control_characters_in_strings_are_refused(name):
     """Control characters, and line separators and bidirectional overrides, which break or reverse the
@@ -397,7 +403,7 @@ def task_with(where: str, value) -> dict:
     """The paper's Cartesian task (or joint task, for waypoints.joints_deg and limits) with ``where`` set;
     an optimizer setting comes with an algorithm that has it."""
     joint = where.startswith(("waypoints.joints_deg", "limits", "name", "version"))
-    optimizer = {"algorithm": "cuckoo", "bounds_s": [3.0, 5.0], "weights": [1.0, 1.0]}
+    optimizer = {"algorithm": "cuckoo", "bounds_s": [3.0, 5.0], "objective": "time-jerk", "weights": [1.0, 1.0]}
     data = joint_task(optimizer=optimizer) if joint else cartesian_task(
         ik={"seed": 0}, path={"mode": "linear"}, trajectory={"family": "hybrid"}, optimizer=optimizer)
     parts = re.findall(r"[^.\[\]]+|\[\d+\]", where)
@@ -461,3 +467,23 @@ def test_make_task_takes_any_mapping_and_refuses_a_list_containing_itself():
     looped.append(looped)
     with pytest.raises(TaskError, match=rf"waypoints\.joints_deg\[0\]\[5\]\[5\].*nested deeper than {MAX_NESTING}"):
         make_task(joints_deg=[looped, looped])
+
+
+@pytest.mark.parametrize("optimizer", [{"weights": [1, 1000]}, {"objective": "time", "weights": [1, 0]}])
+def test_weights_without_the_time_jerk_objective_are_refused(optimizer):
+    """They were accepted and silently unused."""
+    assert_refused(lambda: parse_task(joint_task(optimizer=optimizer)), "only the time-jerk objective has weights",
+                   "optimizer.weights")
+    jerk = parse_task(joint_task(optimizer=optimizer | {"objective": "time-jerk"}))
+    assert jerk.optimizer["weights"] == tuple(float(w) for w in optimizer["weights"])
+
+
+@pytest.mark.parametrize("key", ["tolerance_m", "tolerance_deg"])
+def test_path_tolerances_apply_to_linear_mode_only(key):
+    """In joint mode they were accepted, unused, and reported in summary.json as if they applied."""
+    assert_refused(lambda: parse_task(cartesian_task(path={"mode": "joint", key: 0.01}), source=PAPER_CARTESIAN),
+                   r"only path\.mode: linear follows \(here joint\)", f"path.{key}")
+    assert_refused(lambda: parse_task(cartesian_task(path={key: 0.01}), source=PAPER_CARTESIAN),
+                   "only path.mode: linear", f"path.{key}")
+    linear = parse_task(cartesian_task(path={"mode": "linear", key: 0.01}), source=PAPER_CARTESIAN)
+    assert linear.path.mode == "linear"

@@ -276,6 +276,24 @@ def test_minimum_segment_duration_is_checked():
     assert repaired.feasible[0] and repaired.durations.min() >= 4.0
 
 
+def test_the_time_limit_stops_slsqp_inside_a_start(monkeypatch):
+    """The clock runs out after the starts are evaluated: SLSQP stops at its next finite-difference batch
+    (S + 1 points), not after its start's iterations (a 3 s limit took 65 s at 70 via-points)."""
+    import planner.timing.result as result_module
+
+    calls = []
+
+    def remaining_time():  # time left at the first check (the starts' evaluation), none after
+        calls.append(None)
+        return 1.0 if len(calls) == 1 else 0.0
+
+    monkeypatch.setattr(result_module, "remaining_time", remaining_time)
+    problem = TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", paper.paper_limits())
+    result = optimize(problem, "slsqp", time_limit_s=1000.0, starts=1, iterations=1000)
+    assert result.stop_reason == "time limit of 1000 s reached" and result.feasible
+    assert result.evaluations <= 1 + 2 * (problem.segment_count + 1)
+
+
 @pytest.mark.parametrize("algorithm, settings", [("cuckoo", {"nests": 50, "iterations": 100000}),
                                                   ("pso", {"particles": 50, "iterations": 100000}),
                                                   ("nlp", {}), ("slsqp", {"starts": 10000})])

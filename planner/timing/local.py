@@ -44,7 +44,7 @@ class _Model:
         objective = h.sum(axis=1)
         if p.uses_jerk_energy:
             objective = p.weights[0] * objective + p.weights[1] * jerk_energy(coefficients, h).sum(axis=1)
-        self.tracker.evaluations += len(h)
+        self.tracker.count(len(h))
         return objective, np.concatenate(constraints, axis=1)
 
     def at(self, x: np.ndarray):

@@ -166,6 +166,12 @@ class SearchTracker:
         self._check_time()
         return evaluation
 
+    def count(self, evaluations: int) -> None:
+        """Count ``evaluations`` that offer no candidate (a finite-difference Jacobian's points) and stop
+        at the time limit: a local solver between two offered candidates can take far longer than it."""
+        self.evaluations += evaluations
+        self._check_time()
+
     def _check_time(self) -> None:
         if self.best_durations is not None and remaining_time() == 0.0:
             raise OutOfTime(self)
