@@ -377,6 +377,10 @@ def _waypoint_label(group: list[int], ik) -> str:
     return text
 
 
+#: Shapes whose size or offset reach this [m] are left out of the view's framing.
+_FRAMED_SIZE_M = 1e3
+
+
 def _robot_points(robot, positions: np.ndarray, count: int = 24) -> np.ndarray:
     """Where the arm's bodies go: around the centre of each link's visual geometry, as far as it reaches,
     at ``count`` configurations along ``positions``."""
@@ -398,7 +402,8 @@ def _robot_points(robot, positions: np.ndarray, count: int = 24) -> np.ndarray:
 
 def _link_visuals(urdf_path) -> dict[str, list[tuple[np.ndarray, float]]]:
     """Each link's visual shapes as (centre in the link's frame [m], half their size [m]), from the URDF;
-    meshes count as ``_LINK_REACH`` around their origin."""
+    meshes count as ``_LINK_REACH`` around their origin. A shape at or beyond ``_FRAMED_SIZE_M`` (or not
+    a number) is left out: the view frames the arm, not a 1e300 m box."""
     import xml.etree.ElementTree as ElementTree
 
     visuals: dict[str, list[tuple[np.ndarray, float]]] = {}
@@ -411,12 +416,12 @@ def _link_visuals(urdf_path) -> dict[str, list[tuple[np.ndarray, float]]]:
                 geometry = visual.find("geometry")
                 for shape in geometry if geometry is not None else ():
                     if shape.tag == "box":
-                        size = float(np.linalg.norm(np.fromstring(shape.get("size", ""), sep=" "))) / 2
+                        size = math.hypot(*np.fromstring(shape.get("size", ""), sep=" ")) / 2
                     elif shape.tag == "cylinder":
                         size = math.hypot(float(shape.get("radius", 0)), float(shape.get("length", 0)) / 2)
                     elif shape.tag == "sphere":
                         size = float(shape.get("radius", 0))
-                if centre.shape == (3,):
+                if centre.shape == (3,) and np.abs(centre).max() < _FRAMED_SIZE_M and 0 <= size < _FRAMED_SIZE_M:
                     visuals.setdefault(link.get("name") or "", []).append((centre, size))
     except (OSError, ValueError, ElementTree.ParseError):  # framing is a nicety: link frames alone then
         return {}

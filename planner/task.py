@@ -296,6 +296,8 @@ def _text_number_hint(value) -> str:
         finite = math.isfinite(float(value))
     except ValueError:
         return ""
+    if not value.isascii():  # Python reads other scripts' digits (Arabic-Indic, ...); YAML does not
+        return " (digits other than 0-9: write the number with 0-9)" if finite else ""
     return " (text: write the number without quotes)" if finite else ""
 
 

@@ -1,5 +1,6 @@
 """A Ctrl-C or SIGTERM swallowed by a library (IPOPT does) still stops the work and publishes nothing."""
 
+import os
 import signal
 import subprocess
 import sys
@@ -125,3 +126,25 @@ def test_sigterm_while_nlp_starts_run_in_processes_leaves_none_running(tmp_path)
     time.sleep(0.5)
     assert process.returncode == 143 and err == "terminated\n"
     assert group() == [] and sorted(p.name for p in tmp_path.iterdir()) == ["long.yaml"]
+
+
+def test_an_interruption_a_library_ran_into_still_exits_130(tmp_path):
+    """A Ctrl-C raised in code a library runs through ``PyRun_String`` (during an import) leaves CPython
+    believing it unhandled, although ``main`` caught it: under ``python -m planner.cli`` the process then
+    killed itself by SIGINT after printing ``interrupted`` (returncode -2 instead of 130). Here a
+    sitecustomize leaves that mark, and planning is interrupted."""
+    (tmp_path / "sitecustomize.py").write_text(
+        "import ctypes, sys\n"
+        "import planner.pipeline\n"
+        "def interrupted(*args, **kwargs):\n"
+        "    sys.stderr, shown = open('/dev/null', 'w'), sys.stderr\n"
+        "    ctypes.pythonapi.PyRun_SimpleString(b'raise KeyboardInterrupt')  # the mark a library's code leaves\n"
+        "    sys.stderr = shown\n"
+        "    raise KeyboardInterrupt\n"
+        "planner.pipeline.plan = interrupted\n")
+    environment = {**os.environ, "PYTHONPATH": os.pathsep.join((str(tmp_path), str(ROOT)))}
+    done = subprocess.run([sys.executable, "-m", "planner.cli", "plan", str(ROOT / "scripts" / "tasks" /
+                           "puma560_paper_joint.yaml"), "--out", str(tmp_path / "out")],
+                          capture_output=True, text=True, env=environment, timeout=120)
+    assert (done.returncode, done.stderr) == (130, "interrupted\n")
+    assert not (tmp_path / "out").exists()

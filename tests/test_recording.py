@@ -682,3 +682,18 @@ def test_the_recorded_robot_is_animated_joint_by_joint(planned):
     assert {name: rows.get(f"/robot/joint_transforms/{name}") for name in result.joint_names} == \
         {name: samples for name in result.joint_names}
     assert geometry > 0
+
+
+def test_absurd_visual_shapes_are_left_out_of_the_framing(tmp_path):
+    """A 1e300 m box overflowed (numpy warnings on a successful run's stderr) and would frame nothing."""
+    from planner.recording import _link_visuals
+
+    urdf = tmp_path / "boxes.urdf"
+    urdf.write_text('<robot name="r">'
+                    '<link name="a"><visual><geometry><box size="0.3 0.4 1.2"/></geometry></visual></link>'
+                    '<link name="b"><visual><geometry><box size="1e300 1e300 1e300"/></geometry></visual></link>'
+                    '<link name="c"><visual><origin xyz="nan 0 0"/><geometry><sphere radius="0.1"/></geometry>'
+                    '</visual></link></robot>')
+    with np.errstate(all="raise"):
+        visuals = _link_visuals(urdf)
+    assert list(visuals) == ["a"] and visuals["a"][0][1] == pytest.approx(0.65)

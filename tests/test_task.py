@@ -311,6 +311,8 @@ def test_lists_and_mappings_are_not_names(where, value):
     ("ik.seed", -5, r"must be an integer >= 0"),
     ("ik.seed", "0", r"must be a number, got '0' \(text"),
     ("trajectory.sample_rate_hz", "1e3", r"must be a number, got '1e3' \(text: write the number without quotes\)$"),
+    ("trajectory.sample_rate_hz", "\u0664\u0660", r"must be a number, got '.*' \(digits other than 0-9: write the "
+                                                r"number with 0-9\)$"),
     ("trajectory.sample_rate_hz", 1e6, r"must be > 0 and <= 100000, got 1000000.0$"),
     ("trajectory.min_segment_s", 0, r"must be > 0 and <= 10, got 0$"),
     ("optimizer.weights[0]", 0, r"must be >= 1e-06 and <= 1e\+06, got 0$"),
