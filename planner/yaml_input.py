@@ -111,12 +111,13 @@ class _StrictLoader(yaml.SafeLoader):
         node = super().compose_mapping_node(anchor)
         first: dict[tuple[str, str], yaml.Node] = {}
         for key, _ in node.value:
-            if isinstance(key, yaml.ScalarNode) and key.tag != "tag:yaml.org,2002:merge":
+            if isinstance(key, yaml.ScalarNode):  # merge keys too: two << would let the second win unseen
                 earlier = first.setdefault((key.tag, key.value), key)
                 if earlier is not key:
+                    merge = " (merge several mappings with one <<: [*a, *b])" if key.value == "<<" else ""
                     raise TaskError(_child_path(self._paths[-1], key),
                                     f"duplicate key at {_where(key.start_mark)} (first at "
-                                    f"{_where(earlier.start_mark)}); each key may appear once in a mapping")
+                                    f"{_where(earlier.start_mark)}); each key may appear once in a mapping{merge}")
         return node
 
     def construct_object(self, node, deep=False):

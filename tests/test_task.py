@@ -131,6 +131,7 @@ def assert_refused(call, message: str, path: str | None = None) -> TaskError:
     ("optimizer: {seed: 0, seed: 1}\n", "optimizer.seed"),
     ("waypoints:\n  cartesian:\n    - {xyz_m: [0, 0, 0], xyz_m: [1, 1, 1]}\n", "waypoints.cartesian[0].xyz_m"),
     ('"a b": 1\n"a b": 2\n', "'a b'"),
+    ("optimizer: {<<: {seed: 1}, <<: {seed: 2}}\n", "optimizer.'<<'"),  # the second merge won, unseen
 ])
 def test_duplicate_keys_are_refused_with_key_path_and_line(tmp_path, text, path):
     task = write(tmp_path, PAPER_JOINT.read_text().replace("version: 1\n", "") + "\n" + text)
@@ -142,6 +143,10 @@ def test_merge_keys_may_be_overridden(tmp_path):
     text = PAPER_JOINT.read_text().replace("trajectory: {family: hybrid}",
                                            "trajectory: {<<: {family: cubic}, family: hybrid}")
     assert load_task(write(tmp_path, text)).family == "hybrid"
+    merged = PAPER_JOINT.read_text().replace("trajectory: {family: hybrid}",
+                                             "trajectory: {<<: [{family: cubic}, {sample_rate_hz: 50}]}")
+    assert (load_task(write(tmp_path, merged)).family, load_task(write(tmp_path, merged)).sample_rate_hz) == \
+        ("cubic", 50)
 
 
 # Class 2: a boolean is never a number, a number never a boolean, 1.0 no version.
