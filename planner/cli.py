@@ -93,10 +93,12 @@ def _replay(args) -> int:
             write_trajectory_csv(staging, recorded.trajectory, recorded.rate_hz, recorded.joint_names)
         if args.check:
             check = recorded.check()
+            findings = (["VIOLATIONS: " + "; ".join(check.violations)] if check.violations else []) + (
+                ["SAMPLES OFF THE TRAJECTORY"] if check.deviation > check.tolerance else [])
             print(f"{args.recording}: {len(recorded.joint_names)} joints, {len(recorded.times)} samples, "
                   f"T = {recorded.trajectory.total_time:.4f} s, largest ratio {check.largest_ratio:.4f}, "
                   f"samples vs trajectory {check.deviation:.2e} rad (allowed {check.tolerance:.1e}), "
-                  f"{'limits hold' if not check.violations else 'VIOLATIONS: ' + '; '.join(check.violations)}")
+                  f"{', '.join(findings) or 'limits hold'}")
             code = 0 if check.passed else 1
         if args.screenshot is not None:
             from .screenshot import render_screenshot

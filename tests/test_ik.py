@@ -297,3 +297,18 @@ def test_continuous_rule_takes_the_turn_nearest_the_previous_configuration(monke
     solutions = solve_waypoints(robot, poses, start=path[0], branch="continuous", seed=0)
     np.testing.assert_allclose([s.q for s in solutions], path, atol=1e-6)
     assert all(s.jump < np.deg2rad(60) for s in solutions)
+
+
+@pytest.mark.parametrize("branch", ["optimal", "continuous"])
+def test_a_joint_without_a_range_turns_the_short_way(branch):
+    """UR5 base at 170 deg, then -170 deg, with the base's range taken away: it turns 20 deg on (to 190),
+    not 340 deg back; the other joints stay as they were."""
+    robot = Robot.from_example_robot_data("ur5", "tool0")
+    free = robot.limits.with_overrides(lower=np.r_[-np.inf, robot.limits.lower[1:]],
+                                       upper=np.r_[np.inf, robot.limits.upper[1:]])
+    first = np.deg2rad([170, -60, 80, -110, -90, 0])
+    second = first.copy()
+    second[0] = np.deg2rad(-170)
+    poses = [robot.forward_kinematics(first), robot.forward_kinematics(second)]
+    solutions = solve_waypoints(robot, poses, start=first, branch=branch, limits=free)
+    np.testing.assert_allclose(np.rad2deg(solutions[1].q - solutions[0].q), [20, 0, 0, 0, 0, 0], atol=1e-6)

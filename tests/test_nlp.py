@@ -274,6 +274,9 @@ def test_recombined_takes_each_differing_region_from_the_shorter_solution():
     expected[11:14] = 0.7
     np.testing.assert_array_equal(recombined([first, second, third]), expected)
     assert recombined([first, first * (1 + 1e-6)]) is None and recombined([first]) is None
+    worse = first.copy()
+    worse[12] = 1.8
+    assert recombined([worse, first]) is None  # differs, but nowhere shorter: nothing to solve again
 
 
 @settings(max_examples=50, deadline=None)

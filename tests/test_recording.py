@@ -353,7 +353,8 @@ def test_check_fails_on_samples_off_the_trajectory(offset, tmp_path, capsys):
     positions[77, 1] += offset
     assert main(["replay", str(write_like_planner(tmp_path / "r.rrd", positions=positions)), "--check"]) == 1
     out = capsys.readouterr().out
-    assert "limits hold" in out and f"samples vs trajectory {offset:.2e} rad" in out
+    assert "SAMPLES OFF THE TRAJECTORY" in out and f"samples vs trajectory {offset:.2e} rad" in out
+    assert "limits hold" not in out  # it said so, exiting 1
 
 
 def test_check_passes_only_when_everything_holds(tmp_path, capsys):
@@ -697,3 +698,34 @@ def test_absurd_visual_shapes_are_left_out_of_the_framing(tmp_path):
     with np.errstate(all="raise"):
         visuals = _link_visuals(urdf)
     assert list(visuals) == ["a"] and visuals["a"][0][1] == pytest.approx(0.65)
+
+
+def test_a_long_slow_recording_reads_back_whole(tmp_path):
+    """200,001 samples (a 4000 s trajectory at 50 Hz): every one is read back, in order, exactly."""
+    trajectory, limits, _, _ = small_plan()
+    slow = get_family("cubic").build([[0.0, 0.0], [0.5, -1.0], [1.0, 0.5]], [1000.0] * 4)
+    result = SimpleNamespace(trajectory=slow, joint_names=["a", "b"], limits=limits, robot=None,
+                             task=SimpleNamespace(name="slow", family="cubic", sample_rate_hz=RATE_HZ),
+                             optimization=SimpleNamespace(algorithm="test", feasible=True))
+    path = tmp_path / "slow.rrd"
+    write_recording(result, path)
+    recorded = read_recording(path)
+    times, values = slow.sample(RATE_HZ)
+    assert len(recorded.times) == len(times) == 200001
+    np.testing.assert_allclose(recorded.times, times, atol=1e-9)
+    np.testing.assert_array_equal(recorded.positions, values[0])
+    assert recorded.check().passed
+
+
+def test_a_definition_whose_trajectory_breaks_its_limits_fails_its_check(tmp_path, capsys):
+    """A forged definition: the trajectory of the samples, with limits it breaks. Read back whole, but
+    ``check`` (and ``replay --check``) says no and names the violation."""
+    trajectory, _, _, _ = small_plan()
+    tight = JointLimits.create(2, lower=[-3.0, -3.0], velocity=[0.1, 0.1], jerk=[100.0, 100.0])
+    definition = json.dumps(trajectory_definition(trajectory, tight, ["shoulder", "elbow"]))
+    path = write_like_planner(tmp_path / "forged.rrd", definition=definition)
+    check = read_recording(path).check()
+    assert not check.passed and check.deviation <= check.tolerance and check.violations
+    assert main(["replay", str(path), "--check"]) == 1
+    said = capsys.readouterr().out
+    assert "VIOLATIONS: " in said and "velocity" in said and "limits hold" not in said

@@ -91,15 +91,15 @@ def _regions(first: np.ndarray, second: np.ndarray) -> list[slice]:
 def recombined(solutions: list[np.ndarray]) -> np.ndarray | None:
     """Durations (S,) [s] that follow the shortest of ``solutions`` (each (S,), feasible) and, in every
     region where another one differs from it, take that one's durations if they sum to less there;
-    None where no solution differs from the shortest (nothing to recombine)."""
-    if len(solutions) < 2:
+    None where no region is taken (the shortest is already the recombination: nothing to solve)."""
+    if not solutions:
         return None
     order = np.argsort([solution.sum() for solution in solutions])
     result = solutions[order[0]].copy()
-    regions = 0
+    taken = 0
     for other in (solutions[i] for i in order[1:]):
         for region in _regions(result, other):
-            regions += 1
             if other[region].sum() < result[region].sum():
                 result[region] = other[region]
-    return result if regions else None
+                taken += 1
+    return result if taken else None
