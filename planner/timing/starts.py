@@ -29,10 +29,11 @@ Recombination. The problem is not convex: on clipped walks the starts can end
 in optima that differ region by region (a short chord passed at speed in one,
 nearly stopped at in the other). ``recombined`` takes, in each region where two
 solutions differ, the durations of the one that spends less time there, and the
-NLP solves from that. Over 28 walks (hybrid, 128 to 1024 via-points: the
+NLP solves from that, unless no region was taken (the best start is then its
+own recombination). Over 28 walks (hybrid, 128 to 1024 via-points: the
 benchmark's smooth and clipped walks, and walks clipped to half the PUMA's
-ranges) the starts differed in 15; from their recombination the NLP ended at
-the better start's optimum in 11 and below both in the other 4.
+ranges) the starts differed in 15; solved from their recombination, the NLP
+ended at the better start's optimum in 11 and below both in the other 4.
 """
 
 from __future__ import annotations
