@@ -51,7 +51,7 @@ import logging
 import math
 import weakref
 from dataclasses import dataclass, replace
-from typing import Iterable
+from typing import Callable, Iterable
 
 import numpy as np
 import pinocchio as pin
@@ -391,7 +391,8 @@ def choose_branches(robot: Robot, limits: JointLimits, candidates: list[np.ndarr
 
 def solve_waypoints(robot: Robot, poses: list[pin.SE3], *, hints: list[np.ndarray | None] | None = None,
                     start: np.ndarray | None = None, branch: str = "optimal", limits: JointLimits | None = None,
-                    restarts: int = 30, accept: float = 1e-9, seed: int = 0) -> list[IKSolution]:
+                    restarts: int = 30, accept: float = 1e-9, seed: int = 0,
+                    progress: Callable[[int, int], None] | None = None) -> list[IKSolution]:
     """Joint configurations for a sequence of poses (module docstring for the two rules).
 
     Args:
@@ -404,6 +405,7 @@ def solve_waypoints(robot: Robot, poses: list[pin.SE3], *, hints: list[np.ndarra
         restarts: random restarts per waypoint when a seeded solve fails (``continuous``).
         accept: largest residual (m and rad) accepted as reached.
         seed: seed of the random starts.
+        progress: called as ``progress(done, total)`` after each waypoint solved.
 
     Raises:
         IKError: a pose not reached within the joint ranges (naming the waypoint and the best residual).
@@ -419,9 +421,10 @@ def solve_waypoints(robot: Robot, poses: list[pin.SE3], *, hints: list[np.ndarra
     if start is not None and np.shape(start) != (robot.dof,):
         raise InputError(f"IK start has {np.size(start)} values, robot has {robot.dof} joints")
     rng = np.random.default_rng(seed)
+    report = progress or (lambda done, total: None)
     if branch == "optimal":
-        return _optimal_branches(robot, poses, hints, start, limits or robot.limits, rng, accept)
-    return _continuous_branch(robot, poses, hints, start, limits or robot.limits, rng, restarts, accept)
+        return _optimal_branches(robot, poses, hints, start, limits or robot.limits, rng, accept, report)
+    return _continuous_branch(robot, poses, hints, start, limits or robot.limits, rng, restarts, accept, report)
 
 
 def _unreached(robot: Robot, limits: JointLimits, index: int, attempts: int, best: IKSolution,
@@ -458,7 +461,7 @@ def _check_candidate_count(robot: Robot, limits: JointLimits, index: int, found:
                   f"ik.branch: continuous", waypoint=index)
 
 
-def _optimal_branches(robot, poses, hints, start, limits, rng, accept) -> list[IKSolution]:
+def _optimal_branches(robot, poses, hints, start, limits, rng, accept, progress) -> list[IKSolution]:
     """``solve_waypoints`` with the ``optimal`` rule."""
     per_pose, candidates, owners = [], [], []
     for index, (target, hint) in enumerate(zip(poses, hints)):
@@ -476,6 +479,7 @@ def _optimal_branches(robot, poses, hints, start, limits, rng, accept) -> list[I
         per_pose.append((found, attempts))
         candidates.append(np.concatenate(variants))
         owners.append(np.repeat(np.arange(len(found)), [len(v) for v in variants]))
+        progress(index + 1, len(poses))
     choice = choose_branches(robot, limits, candidates, start)
     free = _turns_freely(robot, limits)
     solutions, previous = [], None
@@ -499,7 +503,7 @@ def _log_choice(rule: str, index: int, solution: IKSolution) -> None:
              solution.position_error, np.rad2deg(solution.orientation_error))
 
 
-def _continuous_branch(robot, poses, hints, start, limits, rng, restarts, accept) -> list[IKSolution]:
+def _continuous_branch(robot, poses, hints, start, limits, rng, restarts, accept, progress) -> list[IKSolution]:
     """``solve_waypoints`` with the ``continuous`` rule."""
     finite_lower, finite_upper = _finite_ranges(robot)
     previous = np.asarray(start, dtype=float) if start is not None else (finite_lower + finite_upper) / 2
@@ -538,4 +542,5 @@ def _continuous_branch(robot, poses, hints, start, limits, rng, restarts, accept
                                     attempts, jump, len(distinct), which, range_margin_deg(q, limits)))
         _log_choice("continuous", index, solutions[-1])
         previous = q
+        progress(index + 1, len(poses))
     return solutions

@@ -362,12 +362,15 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         poses = [pose_from_position_quaternion(w.position, w.quaternion_xyzw) for w in task.cartesian_waypoints]
         hints = [w.hint for w in task.cartesian_waypoints]
         progress.note(f"inverse kinematics: {len(poses)} waypoints ({task.ik.branch} branch rule)")
+        progress.label = f"inverse kinematics, {task.ik.branch} rule"
+        waypoints_done = partial(progress.count, what="waypoints")
         ik = solve_waypoints(robot, poses, hints=hints, start=task.ik.start, branch=task.ik.branch, limits=limits,
-                             seed=task.ik.seed)
+                             seed=task.ik.seed, progress=waypoints_done)
         if task.ik.branch == "optimal":  # the timing below keeps the faster of the two rules' sequences
+            progress.label = "inverse kinematics, continuous rule (the alternative sequence)"
             try:
                 alternative = solve_waypoints(robot, poses, hints=hints, start=task.ik.start, branch="continuous",
-                                              limits=limits, seed=task.ik.seed)
+                                              limits=limits, seed=task.ik.seed, progress=waypoints_done)
             except IKError:
                 alternative = None
         via = np.array([solution.q for solution in ik])

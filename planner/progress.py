@@ -32,14 +32,18 @@ class TerminalProgress:
     def __call__(self, done: int, total: int, best: float) -> None:
         """Show ``done`` of ``total`` iterations and the best objective so far on a live terminal, at most
         once per ``min_interval_s`` (the last iteration always)."""
+        self.count(done, total, f"iterations, best objective {best:.6g}")
+
+    def count(self, done: int, total: int, what: str) -> None:
+        """Show ``{label}: done/total what`` on a live terminal, at most once per ``min_interval_s``
+        (the last step always, ending the line)."""
         if not self.live:
             return
         now = time.monotonic()
         if done < total and now - self._last < self._min_interval:
             return
         self._last = now
-        self._write(self.status, f"\r{self.label}: {done}/{total} iterations, best objective {best:.6g}\033[K"
-                                 + ("\n" if done >= total else ""))
+        self._write(self.status, f"\r{self.label}: {done}/{total} {what}\033[K" + ("\n" if done >= total else ""))
 
     def note(self, message: str) -> None:
         """A one-off line on stdout: a stage starting or ending."""

@@ -8,6 +8,7 @@ import yaml
 from planner import paper
 from planner.cli import main
 from planner.export import read_trajectory_csv
+from planner.progress import TerminalProgress
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_JOINT = ROOT / "scripts" / "tasks" / "puma560_paper_joint.yaml"
@@ -189,3 +190,21 @@ def test_verbose_logs_the_ik_choices_on_stderr_and_only_then(tmp_path, capsys):
     assert not any(line.startswith("planner.timing.nlp: round ") for line in err)  # -vv only
     assert main(["plan", str(task), "--out", str(tmp_path / "b"), "--quiet"]) == 0
     assert capsys.readouterr().err == ""  # the handler went with the run
+
+
+def test_a_live_terminal_sees_counts_and_the_last_one_ends_the_line():
+    import io
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    terminal = Terminal()
+    progress = TerminalProgress("inverse kinematics", status=terminal, min_interval_s=3600.0)
+    for done in range(1, 6):
+        progress.count(done, 5, "waypoints")
+    progress.label = "timing"
+    progress(2, 2, 17.3128)
+    assert terminal.getvalue() == ("\rinverse kinematics: 1/5 waypoints\033[K"
+                                   "\rinverse kinematics: 5/5 waypoints\033[K\n"
+                                   "\rtiming: 2/2 iterations, best objective 17.3128\033[K\n")

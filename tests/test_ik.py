@@ -312,3 +312,12 @@ def test_a_joint_without_a_range_turns_the_short_way(branch):
     poses = [robot.forward_kinematics(first), robot.forward_kinematics(second)]
     solutions = solve_waypoints(robot, poses, start=first, branch=branch, limits=free)
     np.testing.assert_allclose(np.rad2deg(solutions[1].q - solutions[0].q), [20, 0, 0, 0, 0, 0], atol=1e-6)
+
+
+@pytest.mark.parametrize("branch", ["optimal", "continuous"])
+def test_progress_counts_every_waypoint(puma, branch):
+    via = np.deg2rad([[10, -20, 30, 40, 50, -100], [20, -30, 40, 30, 40, -90], [30, -40, 50, 20, 30, -80]])
+    calls = []
+    solve_waypoints(puma, [puma.forward_kinematics(q) for q in via], branch=branch,
+                    progress=lambda done, total: calls.append((done, total)))
+    assert calls == [(1, 3), (2, 3), (3, 3)]
