@@ -67,6 +67,7 @@ tight; nothing is reported feasible that the exact check did not pass.
 
 from __future__ import annotations
 
+import itertools
 import logging
 import time
 from dataclasses import dataclass, replace
@@ -81,7 +82,7 @@ from ..kinematics import max_abs, segment_extrema
 from ..native_output import stderr_captured
 from .formulations import FORMULATIONS, Scales, SegmentBlock
 from .problem import TimingProblem
-from .result import SearchTracker, StartReport, remaining_time
+from .result import AGREEMENT, SearchTracker, StartReport, remaining_time
 from .starts import recombined
 
 log = logging.getLogger(__name__)
@@ -89,6 +90,8 @@ log = logging.getLogger(__name__)
 MAX_ROUNDS = 12
 #: Extremes inside a segment beyond (1 - FLAG_MARGIN) of their bound get a certificate.
 FLAG_MARGIN = 0.05
+#: Where the first round cuts a quantity with no extreme inside a segment (normalised time): both sides.
+FLAT_CUTS = (0.25, 0.5, 0.75)
 #: A cut closer than this (normalised time) to an extreme already covers it.
 CUT_SPACING = 1e-6
 #: Unbounded problems keep every duration above this fraction of the time scale.
@@ -316,6 +319,12 @@ class TimingNLP:
                                 ends = [e for e in (0, 1) if resting[segment + e, joint] == side]
                                 found = replace(found, touch=ends[0] if ends else None)
                             changed |= _place(result, placed, found, float(s[row, joint, c]))
+                    if everywhere and block.degree - order >= 4:  # no extreme inside (a joint at rest): no cut
+                        # would hold the quantity there, and the first solve would make it anything
+                        for row in np.flatnonzero(~inside[:, joint].any(axis=-1)):
+                            for side, location in itertools.product((1, -1), FLAT_CUTS):
+                                found = Certificate(b, int(row), joint, order, side, block.degree - order)
+                                changed |= _place(result, placed, found, location)
         return result, changed
 
     def _certified_polynomials(self, certificates: list[Certificate], f: list) -> list:
@@ -543,7 +552,11 @@ def nlp_refine(problem: TimingProblem, starts: dict[str, np.ndarray], tracker: S
     nlp.blocks  # builds the program without certificates once, before any process forks
     solved = [_report(tracker, label, outcome)
               for label, outcome in zip(labels, _solve_all(nlp, list(repaired.durations)))]
-    start = recombined([durations for durations, report in solved if report.status in SOLVED and report.feasible])
+    kept = [(durations, report.objective) for durations, report in solved
+            if report.status in SOLVED and report.feasible]
+    objectives = [objective for _, objective in kept]
+    start = recombined([durations for durations, _ in kept]) \
+        if kept and max(objectives) > min(objectives) * (1 + AGREEMENT) else None  # agreeing starts: nothing to gain
     if start is not None:
         _report(tracker, "recombined", _solve_all(nlp, list(tracker.evaluate(start[None]).durations))[0])
 
