@@ -87,7 +87,7 @@ def task(kind: str, count: int, ranges: bool) -> tuple[np.ndarray, object]:
 
 
 def start_summary(result) -> str:
-    """Iterations and IPOPT status of each NLP start: ``rest-to-rest 23 ok, ...``."""
+    """Iterations and IPOPT status of each NLP start: ``cruise 23 ok, ...``."""
     short = {"Solve_Succeeded": "ok", "Solved_To_Acceptable_Level": "acceptable"}
     return ", ".join(f"{s.label} {s.iterations} {short.get(s.status, s.status)}" for s in result.starts)
 
