@@ -78,8 +78,9 @@ def _replay(args) -> int:
         raise InputError("--time says when to take a --screenshot: give --screenshot OUT.png too")
     for option, target in (("--export-csv", args.export_csv), ("--screenshot", args.screenshot)):
         if target is not None:  # checked before reading: a bad target fails fast and leaves nothing
-            if check_output_file(target) == Path(args.recording).resolve():
+            if check_output_file(target, force=True) == Path(args.recording).resolve():
                 raise OutputError(f"{option} {target} is the recording itself")
+            check_output_file(target, force=args.force)
     recorded = read_recording(args.recording)
     target = args.export_csv
     total = recorded.trajectory.total_time
@@ -89,7 +90,7 @@ def _replay(args) -> int:
     code = 0
     with ExitStack() as files:  # the CSV and the screenshot are published together, or neither is
         if target is not None:
-            staging = files.enter_context(atomic_file(target))
+            staging = files.enter_context(atomic_file(target, force=args.force))
             write_trajectory_csv(staging, recorded.trajectory, recorded.rate_hz, recorded.joint_names)
         if args.check:
             check = recorded.check()
@@ -102,7 +103,7 @@ def _replay(args) -> int:
             code = 0 if check.passed else 1
         if args.screenshot is not None:
             from .screenshot import render_screenshot
-            render_screenshot(args.recording, files.enter_context(atomic_file(args.screenshot)), at)
+            render_screenshot(args.recording, files.enter_context(atomic_file(args.screenshot, force=args.force)), at)
     if args.screenshot is None and not args.check and target is None:
         open_in_viewer(args.recording, command=_command())
     return code
@@ -189,6 +190,7 @@ def build_parser() -> argparse.ArgumentParser:
     from .screenshot import time_argument  # light: the standard library and planner.errors only
     replay.add_argument("--time", type=time_argument, metavar="T",
                         help="time of the --screenshot [s] (default: half the total time)")
+    replay.add_argument("--force", action="store_true", help="replace an existing --export-csv or --screenshot file")
     replay.set_defaults(run=_replay)
     return parser
 

@@ -54,6 +54,9 @@ UNITS = tuple(q.unit for q in PROFILE_QUANTITIES)
 #: Units of position and of the derivative orders 1..3 in messages and reports (task files use degrees).
 DEGREE_UNITS = tuple(q.degree_unit for q in PROFILE_QUANTITIES)
 
+#: The range [deg/s^d] any velocity, acceleration or jerk limit may take, in a task file or a robot's
+#: limits file (1e-320 underflowed to 0 and 1e308 overflowed in the arithmetic).
+LIMIT_DEG_RANGE = (1e-12, 1e15)
 #: The one feasibility tolerance: constraint ratios up to 1 + this, positions up to this [rad]
 #: outside their range, count as holding (rounding in the exact checks and in unit conversions,
 #: such as a via-point written as -160 deg against a URDF bound of -2.792526803 rad).

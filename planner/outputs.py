@@ -285,7 +285,8 @@ def output_folder(path, *, force: bool = False, files: Iterable[str] = ()) -> It
     destination is left as it was.
 
     Raises:
-        OutputError: ``check_output_folder``'s errors, or another process writing the same folder.
+        OutputError: ``check_output_folder``'s errors, another process writing the same folder, or the
+            system refusing to write the outputs (a full disk, a quota).
     """
     folder, in_place = check_output_folder(path, force=force)
     created = _missing_parents(folder)
@@ -325,6 +326,9 @@ def output_folder(path, *, force: bool = False, files: Iterable[str] = ()) -> It
         else:
             _publish_whole(staging, folder)
         published = True
+    except OSError as exc:  # a full disk, a quota: the outputs could not be written (the folder is as it was)
+        raise OutputError(f"output folder {shown(str(folder))}: cannot write the outputs "
+                          f"({exc.strerror or exc})") from None
     finally:
         if staging is not None:
             shutil.rmtree(staging, ignore_errors=True)
@@ -347,41 +351,45 @@ def _remove_empty(folders: list[Path]) -> None:
             break
 
 
-def check_output_file(path) -> Path:
+def check_output_file(path, *, force: bool = False) -> Path:
     """``path`` as an absolute file path that can be written, checked before any work.
 
     Raises:
-        OutputError: an empty path, a path that is a folder or lies under a file, or an unwritable folder.
+        OutputError: an empty path, a path that is a folder or lies under a file, an unwritable
+            folder, or (without ``force``) an existing file: a user's file is never replaced unasked.
     """
     target = _absolute(path, "output file")
     try:
-        return _check_file(target)
+        return _check_file(target, force)
     except OSError as exc:
         raise OutputError(f"output file {shown(str(target))}: {exc.strerror or exc}") from None
 
 
-def _check_file(target: Path) -> Path:
+def _check_file(target: Path, force: bool) -> Path:
     """``check_output_file`` for an absolute ``target``."""
     if target.is_dir():
         raise OutputError(f"output file {target} is an existing folder; give a file name")
     if target.exists() and not target.is_file():
         raise OutputError(f"output file {target} exists and is not a regular file (a device, pipe or socket); "
                           f"give a file name")
+    if target.exists() and not force:
+        raise OutputError(f"output file {target} exists; add --force to replace it, or give another name")
     check_writable_location(target, "output file")
     return target
 
 
 @contextmanager
-def atomic_file(path) -> Iterator[Path]:
+def atomic_file(path, *, force: bool = False) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; on success rename it to ``path``, else delete it
     (and the parent folders made for it).
 
     The file gets the permissions any new file of the user gets (0666 less the umask).
 
     Raises:
-        OutputError: as ``check_output_file``.
+        OutputError: as ``check_output_file``; or the system refused to make, write or rename the
+            file (a full disk, a place such as /proc that takes no new files), naming it.
     """
-    target = check_output_file(path)
+    target = check_output_file(path, force=force)
     created = _missing_parents(target)
     published = False
     try:
@@ -394,6 +402,8 @@ def atomic_file(path) -> Iterator[Path]:
             published = True
         finally:
             temporary.unlink(missing_ok=True)
+    except OSError as exc:
+        raise OutputError(f"output file {shown(str(target))}: cannot write it ({exc.strerror or exc})") from None
     finally:
         if not published:
             _remove_empty(created)

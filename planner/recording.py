@@ -539,6 +539,8 @@ def read_recording(path) -> RecordedPlan:
             an incomplete recording (no end marker, samples missing, duplicated or off
             the trajectory's time span).
     """
+    if not isinstance(path, (str, os.PathLike)) or not isinstance(os.fspath(path), str):
+        raise RecordingError(f"a recording is given by its path (text or path-like), not {type(path).__name__}")
     if isinstance(path, str) and not path.strip():
         raise RecordingError("the recording's path is empty (an unset shell variable?); give a path")
     path = Path(path)

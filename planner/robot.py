@@ -30,7 +30,7 @@ from .errors import (
     UnsupportedRobotError,
     shown,
 )
-from .limits import LIMITED, JointLimits
+from .limits import LIMIT_DEG_RANGE, LIMITED, JointLimits
 from .native_output import stderr_captured
 from .yaml_input import read_yaml
 
@@ -347,8 +347,11 @@ def _positive_finite(value) -> bool:
 def _read_limit_file(path: Path, model: pin.Model) -> dict[str, dict[str, float]]:
     """Acceleration and jerk limits of ``<robot>.limits.yaml``: one value [deg/s^2, deg/s^3] per joint
     of ``model``, in file order; returned in SI by quantity and joint name. {} if there is no file."""
-    if not path.is_file():
+    if not os.path.lexists(path):
         return {}
+    if not path.is_file():
+        raise RobotFileError(f"limits file {path} is not a regular file (a folder, pipe or broken link); move it "
+                             f"away or make it a file", path=path)
     try:
         data = read_yaml(path, "limits file")
     except TaskError as exc:
@@ -370,10 +373,11 @@ def _read_limit_file(path: Path, model: pin.Model) -> dict[str, dict[str, float]
         if not isinstance(values, list) or len(values) != len(joints):
             raise RobotFileError(f"limits file {path}: {key} must be a list of {len(joints)} positive numbers, one "
                                  f"per joint ({', '.join(joints)}), got {shown(values)}", path=path)
+        low, high = LIMIT_DEG_RANGE
         for joint, value in zip(joints, values):
-            if not _positive_finite(value):
-                raise RobotFileError(f"limits file {path}: {key} of joint {joint!r} must be a positive number, "
-                                     f"got {shown(value)}", path=path)
+            if not _positive_finite(value) or not low <= value <= high:
+                raise RobotFileError(f"limits file {path}: {key} of joint {joint!r} must be a number >= {low:g} and "
+                                     f"<= {high:g}, got {shown(value)}", path=path)
         limits[quantity] = {joint: math.radians(value) for joint, value in zip(joints, values)}
     return limits
 

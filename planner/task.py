@@ -49,7 +49,7 @@ import numpy as np
 
 from .errors import SHOWN_VALUE_CHARS, TaskError, shown
 from .ik import BRANCH_RULES
-from .limits import LIMITED, PROFILE_QUANTITIES
+from .limits import LIMIT_DEG_RANGE, LIMITED, PROFILE_QUANTITIES
 from .read_only import freeze_arrays
 from .splines import FAMILIES
 from .timing import NOT_SETTINGS, OPTIMIZERS, settings_signature
@@ -105,8 +105,8 @@ _COUNT = 10_000
 #: Every number in a list of angles (joint waypoints, ranges, hints, start, roll-pitch-yaw) [deg]:
 #: 277 turns either way. Caps like these catch unit mistakes and keep the arithmetic finite.
 ANGLE_DEG = Range(-1e5, 1e5)
-#: Every velocity, acceleration and jerk limit [deg/s^d] (1e-320 underflowed to 0, 1e308 overflowed).
-LIMIT_DEG = Range(1e-12, 1e15)
+#: Every velocity, acceleration and jerk limit [deg/s^d].
+LIMIT_DEG = Range(*LIMIT_DEG_RANGE)
 #: Every tool position coordinate [m].
 POSITION_M = Range(-1e4, 1e4)
 #: Every joint torque limit [N m]: a micro-actuator's to a large press's.

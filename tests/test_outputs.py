@@ -221,7 +221,7 @@ def test_failing_publish_keeps_the_old_outputs(tmp_path, monkeypatch, exchange_a
     else:
         monkeypatch.setattr(outputs, "_exchange", lambda first, second: False)
         monkeypatch.setattr(outputs.os, "rename", failing_second_rename)
-    with pytest.raises(OSError):
+    with pytest.raises(OutputError, match=r"cannot write the outputs \(Input/output error\)"):
         write_outputs(out, {"a.txt": "new"})
     assert contents(out) == {"a.txt": "old", MARKER: (out / MARKER).read_text()}
     monkeypatch.undo()
@@ -398,3 +398,37 @@ def test_unusable_output_paths_are_output_errors(tmp_path, monkeypatch, path, me
     with pytest.raises(OutputError, match=message):
         write_outputs(path, {"a.txt": "1"})
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_full_disk_is_an_output_error_and_leaves_the_folder_as_it_was(tmp_path):
+    import errno
+
+    out = tmp_path / "out"
+    write_outputs(out, {"a.txt": "first"})
+    with pytest.raises(OutputError, match=r"output folder .*: cannot write the outputs \(No space left on device\)"):
+        with output_folder(out) as staging:
+            (staging / "a.txt").write_text("second")
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+    assert contents(out) == {"a.txt": "first", MARKER: (out / MARKER).read_text()} and leftovers(tmp_path) == []
+    with pytest.raises(OutputError, match=r"export.csv'?: cannot write it \(No space left on device\)"):
+        with atomic_file(tmp_path / "export.csv") as staging:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+    assert not (tmp_path / "export.csv").exists() and not list(tmp_path.glob(".export.csv.*"))
+
+
+def test_a_single_file_where_no_file_can_be_made_is_an_output_error():
+    with pytest.raises(OutputError, match=r"/proc/planner-test.csv'?: cannot write it"):
+        with atomic_file("/proc/planner-test.csv"):
+            pass
+
+
+def test_an_existing_file_is_replaced_only_with_force(tmp_path):
+    target = tmp_path / "export.csv"
+    target.write_text("precious")
+    with pytest.raises(OutputError, match="exists; add --force to replace it"):
+        with atomic_file(target) as staging:
+            staging.write_text("new")
+    assert target.read_text() == "precious"
+    with atomic_file(target, force=True) as staging:
+        staging.write_text("new")
+    assert target.read_text() == "new"

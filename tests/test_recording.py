@@ -729,3 +729,19 @@ def test_a_definition_whose_trajectory_breaks_its_limits_fails_its_check(tmp_pat
     assert main(["replay", str(path), "--check"]) == 1
     said = capsys.readouterr().out
     assert "VIOLATIONS: " in said and "velocity" in said and "limits hold" not in said
+
+
+def test_replay_replaces_an_existing_file_only_with_force(recording, tmp_path, capsys):
+    """--export-csv onto a user's file replaced it silently."""
+    target = tmp_path / "mine.csv"
+    target.write_text("precious")
+    assert main(["replay", str(recording), "--export-csv", str(target)]) == 2
+    assert "exists; add --force to replace it" in capsys.readouterr().err and target.read_text() == "precious"
+    assert main(["replay", str(recording), "--export-csv", str(target), "--force"]) == 0
+    assert read_trajectory_csv(target)[0][0] == 0.0
+
+
+@pytest.mark.parametrize("path", [None, b"x.rrd", 3])
+def test_a_recording_path_that_is_no_path_is_a_recording_error(path):
+    with pytest.raises(RecordingError, match="a recording is given by its path"):
+        read_recording(path)

@@ -101,12 +101,14 @@ def arm_with_limits(tmp_path, limits_text: str | bytes) -> Path:
     ("acceleration_deg_s2: [a, b]\n", r"acceleration_deg_s2 must be a list of 6 .*got \['a', 'b'\]$"),
     ("acceleration_deg_s2: {a: 1}\n", r"acceleration_deg_s2 must be a list of 6 .*got \{'a': 1\}$"),
     ("jerk_deg_s3: 5\n", r"jerk_deg_s3 must be a list of 6"),
-    ("jerk_deg_s3: [1, 2, x, 4, 5, 6]\n", r"jerk_deg_s3 of joint 'joint3' must be a positive number, got 'x'$"),
-    ("jerk_deg_s3: [1, 2, 3, 4, 5, true]\n", r"jerk_deg_s3 of joint 'joint6' must be a positive number, got True$"),
-    ("jerk_deg_s3: [1, 2, 3, 4, [5], 6]\n", r"of joint 'joint5' must be a positive number, got \[5\]$"),
-    ("jerk_deg_s3: [1, 2, 3, 4, .nan, 6]\n", r"of joint 'joint5' must be a positive number, got nan$"),
-    (f"jerk_deg_s3: [1, 2, 3, 4, {'9' * 400}, 6]\n", r"of joint 'joint5' must be a positive number, got 9+… \(400"),
-    ("jerk_deg_s3: [1, 2, 3, 4, 0, 6]\n", r"of joint 'joint5' must be a positive number, got 0$"),
+    ("jerk_deg_s3: [1, 2, x, 4, 5, 6]\n", r"jerk_deg_s3 of joint 'joint3' must be a number >= 1e-12 .*, got 'x'$"),
+    ("jerk_deg_s3: [1, 2, 3, 4, 5, true]\n", r"jerk_deg_s3 of joint 'joint6' must be a number >= 1e-12 .*, got True$"),
+    ("jerk_deg_s3: [1, 2, 3, 4, [5], 6]\n", r"of joint 'joint5' must be a number >= 1e-12 .*, got \[5\]$"),
+    ("jerk_deg_s3: [1, 2, 3, 4, .nan, 6]\n", r"of joint 'joint5' must be a number >= 1e-12 .*, got nan$"),
+    (f"jerk_deg_s3: [1, 2, 3, 4, {'9' * 400}, 6]\n", r"of joint 'joint5' must be a number >= 1e-12 .*, got 9+… \(400"),
+    ("jerk_deg_s3: [1, 2, 3, 4, 0, 6]\n", r"of joint 'joint5' must be a number >= 1e-12 .*, got 0$"),
+    ("acceleration_deg_s2: [1, 1, 1e-300, 1, 1, 1]\n", r"of joint 'joint3' must be a number >= 1e-12 .*, got 1e-300$"),
+    ("acceleration_deg_s2: [1, 1, 1, 1, 1, 1.0e+300]\n", r"of joint 'joint6' must be .*<= 1e\+15, got 1e\+300$"),
     ("speed: [1]\n", r"unknown key 'speed'; expected acceleration_deg_s2 and jerk_deg_s3"),
     ("- 1\n", r"must map acceleration_deg_s2 and jerk_deg_s3 to lists, got list"),
     ("jerk_deg_s3: [1, 2\n", r"not valid YAML at line 2, column 1"),
@@ -121,6 +123,22 @@ def test_bad_limits_file_names_file_key_joint_and_value(tmp_path, text, message)
     with pytest.raises(RobotError, match=message) as caught:
         Robot.from_urdf(urdf, "tool")
     assert str(caught.value).startswith(f"limits file {tmp_path / 'arm.limits.yaml'}") and len(str(caught.value)) < 400
+
+
+@pytest.mark.parametrize("kind", ["folder", "pipe", "broken link"])
+def test_a_limits_file_that_is_no_file_is_refused(tmp_path, kind):
+    """It was ignored without a word, and the task then lacked the limits it holds."""
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text(PUMA.read_text())
+    limits = tmp_path / "arm.limits.yaml"
+    if kind == "folder":
+        limits.mkdir()
+    elif kind == "pipe":
+        os.mkfifo(limits)
+    else:
+        limits.symlink_to(tmp_path / "missing.yaml")
+    with pytest.raises(RobotFileError, match=r"limits file .*arm\.limits\.yaml is not a regular file"):
+        Robot.from_urdf(urdf, "tool")
 
 
 def test_limits_file_gives_one_value_per_urdf_joint_and_keeps_those_of_the_chain(tmp_path):

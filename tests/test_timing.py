@@ -306,3 +306,12 @@ def test_time_limit_stops_any_optimizer_with_a_feasible_best(algorithm, settings
     assert result.feasible and np.isfinite(result.total_time)
     figures = kinematic_figures(problem.trajectory(result.durations))
     assert not figures.violations(paper.paper_limits())
+
+
+@pytest.mark.parametrize("limit", [0, -1, float("nan"), float("inf"), True, "5"])
+def test_a_time_limit_must_be_a_positive_number_of_seconds(limit):
+    """nan meant no limit and 0 or -1 stopped at once, without a word."""
+    problem = TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", paper.paper_limits())
+    with pytest.raises(InputError, match="time_limit_s must be a finite number of seconds > 0"):
+        optimize(problem, "nlp", time_limit_s=limit)
+    assert optimize(problem, "nlp", time_limit_s=np.float64(30)).feasible
