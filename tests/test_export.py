@@ -118,3 +118,22 @@ def test_csv_lines_end_in_a_line_feed_only(tmp_path, trajectory):
     write_trajectory_csv(tmp_path / "t.csv", trajectory, 10.0)
     raw = (tmp_path / "t.csv").read_bytes()
     assert b"\r" not in raw and raw.endswith(b"\n") and raw.count(b"\n") == len(trajectory.sample_times(10.0)) + 1
+
+
+@pytest.mark.parametrize("joints", [1, 4, 6])
+def test_a_csv_with_torque_columns_reads_back_every_kinematic_column(tmp_path, joints):
+    """With fewer than 4 joints, or torques that look like a fifth block, the column count hid a wrong split."""
+    via = np.deg2rad(np.random.default_rng(joints).uniform(-60, 60, (4, joints)))
+    family = get_family("hybrid")
+    trajectory = family.build(via, np.full(family.segment_count(4), 0.8))
+    path = tmp_path / "t.csv"
+    write_trajectory_csv(path, trajectory, 50.0, torques=lambda t: np.outer(np.sin(t), np.arange(1, joints + 1)))
+    times, values = read_trajectory_csv(path)
+    assert values.shape == (4, len(times), joints)
+    np.testing.assert_allclose(values, np.stack([trajectory.evaluate(times, d) for d in range(4)]), rtol=1e-8,
+                               atol=1e-9)
+
+
+def test_json_ready_keeps_text_and_booleans():
+    assert export.json_ready(np.array(["a", "b"])) == ["a", "b"]
+    assert export.json_ready(np.array([True, False])) == [True, False]

@@ -272,3 +272,67 @@ def test_a_position_violation_reads_above_or_below_and_the_tolerance_is_exact(pa
     assert (violation.quantity, violation.order, violation.index) == ("position", 0, 2)
     assert str(violation) == (f"joint joint3 position {np.rad2deg(top):.6g} deg is above its upper limit "
                               f"{np.rad2deg(top - 1.5e-9):.6g} deg")
+
+
+# ------------------------------------------------------------ roots against numpy's (from a mutation run)
+
+def _inside(found: np.ndarray) -> np.ndarray:
+    """The real roots strictly inside (0, 1), sorted."""
+    found = np.sort(found[~np.isnan(found)])
+    return found[(found > 1e-9) & (found < 1 - 1e-9)]
+
+
+def test_a_linear_column_beside_a_cubic_has_its_own_root():
+    """Slope 2 (a slope of 1 hid a multiplication where the root divides)."""
+    cubic = np.polynomial.polynomial.polyfromroots([0.2, 0.6, 2.0])
+    found = column_roots(np.stack((cubic, [-1.4, 2.0, 0.0, 0.0]))[None, None])[0, 0]
+    np.testing.assert_allclose(_inside(found[0]), [0.2, 0.6], atol=1e-9)
+    np.testing.assert_allclose(_inside(found[1]), [0.7], atol=1e-12)
+
+
+def test_a_column_of_mixed_degrees_with_a_still_joint_first():
+    """A joint that never moves (all zero) before a quintic and a quadratic padded to width 6: each keeps
+    exactly its own roots (the floor and scale of the eigenvalue solver are per joint)."""
+    quintic = np.polynomial.polynomial.polyfromroots([0.2, 0.5, 0.7, 2.0, -1.0]) * -0.8
+    quadratic = np.concatenate((np.polynomial.polynomial.polyfromroots([0.35, -2.0]) * 3.0, np.zeros(3)))
+    found = column_roots(np.stack((np.zeros(6), quintic, quadratic))[None, None])[0, 0]
+    for roots, expected in zip(found, ([], [0.2, 0.5, 0.7], [0.35])):
+        np.testing.assert_allclose(_inside(roots), expected, atol=1e-9)
+
+
+@pytest.mark.parametrize("roots, expected", [([0.3, 1, 1, 1, 1], [0.3]), ([0.3, 0.8, 1, 1, 1, 1], [0.3, 0.8])])
+def test_roots_at_the_segment_end_are_divided_out_down_to_a_linear_factor(roots, expected):
+    polynomial = np.polynomial.polynomial.polyfromroots(roots) * 1.7
+    np.testing.assert_allclose(_inside(column_roots(polynomial[None, None, None])[0, 0, 0]), expected, atol=1e-7)
+
+
+@pytest.mark.parametrize("scale", [1e-9, 1e-12, 1e-15])
+@pytest.mark.parametrize("degree", [4, 5, 6])
+def test_tiny_polynomials_keep_their_roots(scale, degree):
+    """The roots do not depend on the polynomial's scale, down to 1e-15."""
+    rng = np.random.default_rng(degree)
+    inside = np.sort(rng.uniform(0.05, 0.95, degree - 1))
+    polynomial = np.polynomial.polynomial.polyfromroots(np.concatenate((inside, rng.uniform(2, 3, 1)))) * scale
+    np.testing.assert_allclose(_inside(column_roots(polynomial[None, None, None])[0, 0, 0]), inside, atol=1e-7)
+
+
+def test_figures_of_a_still_joint_raise_no_floating_point_warning():
+    """A joint that never moves gives all-zero columns: the root finders divide by their zeros on purpose."""
+    import warnings
+
+    via = np.deg2rad([[15, 10, 5], [15, 40, -20], [15, -5, 30], [15, 20, 10]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for name in ("cubic", "hybrid", "quintic", "hermite7"):
+            family = get_family(name)
+            kinematic_figures(family.build(via, np.full(family.segment_count(len(via)), 1.5)))
+
+
+def test_total_time_and_the_lower_position_tolerance():
+    via = np.deg2rad([[0, 10], [30, -20], [-10, 40]])
+    trajectory = get_family("hybrid").build(via, np.full(4, 1.25))
+    figures = kinematic_figures(trajectory)
+    assert figures.total_time == pytest.approx(trajectory.durations.sum(), rel=1e-15)
+    for beyond, sides in ((0.75e-9, []), (1.5e-9, ["lower"])):  # the tolerance is 1e-9 rad, as on the upper side
+        limits = JointLimits.create(2, lower=[-np.inf, figures.position_min[1] + beyond])
+        assert [v.side for v in figures.violations(limits)] == sides
