@@ -39,7 +39,7 @@ def _plan(args) -> int:
     progress = TerminalProgress("optimizing", quiet=args.quiet)
     with output_folder(args.out, force=args.force, files=OUTPUT_FILES) as staging:
         result = plan(args.task, progress=progress)
-        progress.note(f"writing the outputs to {args.out}")
+        progress.note(f"writing the outputs to {_printable(str(args.out))}")
         result.write(staging)
     interrupts.finish()  # published: a signal from now on changes nothing
     out = Path(args.out)
@@ -48,8 +48,9 @@ def _plan(args) -> int:
         print(f"{result.task.name}: {result.task.family}, total time {result.trajectory.total_time:.4f} s, "
               f"largest ratio {result.max_ratio:.4f}, feasible {result.feasible}")
         print(f"timings: {timing}")
-        print(f"outputs in {out}/: " + ", ".join(sorted(p.name for p in out.iterdir() if not p.name.startswith("."))))
-        print(f"open the recording with: {_command()} replay {out / 'trajectory.rrd'}  "
+        print(f"outputs in {_printable(str(out))}/: "
+              + ", ".join(sorted(p.name for p in out.iterdir() if not p.name.startswith("."))))
+        print(f"open the recording with: {_command()} replay {_printable(str(out / 'trajectory.rrd'))}  "
               f"(check it without a viewer: add --check)")
     return 0
 
@@ -249,6 +250,9 @@ def entry() -> None:
     Ctrl-C landed in code a library ran through ``PyRun_String`` during an import, CPython remembers
     it as unhandled although ``main`` caught it, and under ``python -m`` then ends the process by
     SIGINT instead of with exit code 130 (1 run in 3 with Ctrl-C 0.3 s after the start)."""
+    for stream in (sys.stdout, sys.stderr):  # a path the terminal's encoding cannot show is shown escaped
+        if hasattr(stream, "reconfigure"):
+            stream.reconfigure(errors="backslashreplace")
     code = main(keep_signal_handlers=True)
     for number in (signal.SIGINT, signal.SIGTERM):
         signal.signal(number, signal.SIG_IGN)

@@ -650,6 +650,10 @@ def _numbers(where: str, data: dict, key: str, count: int | None = None, *, infi
     return array
 
 
+#: The most coefficients per polynomial a recording may hold: the planner's families have 4 to 8.
+_MAX_COEFFICIENTS = 16
+
+
 def _definition(path: Path, text: str) -> tuple[list[str], PiecewisePolynomial, JointLimits]:
     """Joint names, trajectory and limits from the ``trajectory/definition`` text, every field checked."""
     where = f"{path}: trajectory/definition"
@@ -663,9 +667,9 @@ def _definition(path: Path, text: str) -> tuple[list[str], PiecewisePolynomial, 
     durations = _numbers(where, data, "durations_s")
     shape = data.get("coefficients_shape")
     if not (isinstance(shape, list) and len(shape) == 3 and all(_is_count(n) for n in shape)
-            and shape[:2] == [len(durations), len(names)] and shape[2] >= 1):
+            and shape[:2] == [len(durations), len(names)] and 1 <= shape[2] <= _MAX_COEFFICIENTS):
         raise RecordingError(f"{where}: coefficients_shape must be [{len(durations)} segments, {len(names)} joints, "
-                             f"coefficients per polynomial], got {shown(shape)}")
+                             f"1 to {_MAX_COEFFICIENTS} coefficients per polynomial], got {shown(shape)}")
     coefficients = _numbers(where, data, "coefficients", math.prod(shape))
     knots = data.get("via_knots")
     if not (isinstance(knots, list) and all(_is_count(k) and k <= len(durations) for k in knots)

@@ -52,6 +52,11 @@ class PiecewisePolynomial:
         if durations.ndim != 1 or coefficients.shape[0] != durations.shape[0]:
             raise InputError(
                 f"coefficients shape {coefficients.shape} does not match {durations.shape[-1]} durations")
+        with np.errstate(over="ignore"):
+            total = durations.sum()
+        if not np.isfinite(total):
+            raise InputError(f"the durations sum to more than any number of seconds ({durations.max():g} s at most "
+                             f"each): the total time must be finite")
         object.__setattr__(self, "durations", durations)
         object.__setattr__(self, "coefficients", coefficients)
         object.__setattr__(self, "via_knots", np.asarray(self.via_knots, dtype=int))

@@ -208,3 +208,12 @@ def test_a_live_terminal_sees_counts_and_the_last_one_ends_the_line():
     assert terminal.getvalue() == ("\rinverse kinematics: 1/5 waypoints\033[K"
                                    "\rinverse kinematics: 5/5 waypoints\033[K\n"
                                    "\rtiming: 2/2 iterations, best objective 17.3128\033[K\n")
+
+
+def test_an_output_folder_with_a_newline_is_printed_escaped(tmp_path, capsys):
+    """A name with a newline broke the success lines in two."""
+    out = tmp_path / "o\nx"
+    assert main(["plan", str(small_task(tmp_path)), "--out", str(out)]) == 0
+    said = capsys.readouterr().out
+    assert "o\\nx/: coefficients.json" in said and not any(line.startswith("x/") for line in said.splitlines())
+    assert (out / "summary.json").is_file()
