@@ -99,7 +99,7 @@ def _replay(args) -> int:
                 ["SAMPLES OFF THE TRAJECTORY"] if check.deviation > check.tolerance else [])
             print(f"{args.recording}: {len(recorded.joint_names)} joints, {len(recorded.times)} samples, "
                   f"T = {recorded.trajectory.total_time:.4f} s, largest ratio {check.largest_ratio:.4f}, "
-                  f"samples vs trajectory {check.deviation:.2e} rad (allowed {check.tolerance:.1e}), "
+                  f"samples vs trajectory {check.deviation:.2e} rad (allowed {check.tolerance:.2e}), "
                   f"{', '.join(findings) or 'limits hold'}")
             code = 0 if check.passed else 1
         if args.screenshot is not None:

@@ -662,8 +662,9 @@ def _definition(path: Path, text: str) -> tuple[list[str], PiecewisePolynomial, 
         raise RecordingError(f"{where}: format {shown(data.get('format'))}, expected {FORMAT!r} "
                              "(not a planner recording, or one from another planner version)")
     names = data.get("joint_names")
-    if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
-        raise RecordingError(f"{where}: joint_names must be a non-empty list of texts, got {shown(names)}")
+    if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names) \
+            or len(set(names)) < len(names):
+        raise RecordingError(f"{where}: joint_names must be a non-empty list of distinct texts, got {shown(names)}")
     durations = _numbers(where, data, "durations_s")
     shape = data.get("coefficients_shape")
     if not (isinstance(shape, list) and len(shape) == 3 and all(_is_count(n) for n in shape)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import warnings
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -142,7 +143,9 @@ def _legend_keys(columns: list[ProfileColumn], points_label: str, levels_label: 
 @contextmanager
 def _plain_text_figures():
     """matplotlib.pyplot with the Agg backend, in a context where text is plain (no mathtext)
-    and missing glyphs are drawn as boxes without a warning."""
+    and missing glyphs are drawn as boxes without a warning. matplotlib's own log says only what it
+    copes with itself (a cache folder it cannot write, in a temporary one instead): errors only."""
+    logging.getLogger("matplotlib").setLevel(logging.ERROR)
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

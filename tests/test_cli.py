@@ -217,3 +217,16 @@ def test_an_output_folder_with_a_newline_is_printed_escaped(tmp_path, capsys):
     said = capsys.readouterr().out
     assert "o\\nx/: coefficients.json" in said and not any(line.startswith("x/") for line in said.splitlines())
     assert (out / "summary.json").is_file()
+
+
+def test_a_successful_plan_says_nothing_on_stderr_even_when_matplotlib_cannot_cache(tmp_path):
+    """With its cache folder unwritable, matplotlib logged two warning lines about using a temporary one."""
+    import os
+    import subprocess
+    import sys
+
+    environment = {**os.environ, "MPLCONFIGDIR": "/proc/unwritable"}
+    done = subprocess.run([sys.executable, "-m", "planner.cli", "plan", str(small_task(tmp_path)), "--out",
+                           str(tmp_path / "out"), "--quiet"], capture_output=True, text=True, env=environment,
+                          timeout=120)
+    assert (done.returncode, done.stderr, done.stdout) == (0, "", "")

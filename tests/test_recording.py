@@ -281,6 +281,7 @@ MALFORMED = {  # case: (write_like_planner arguments, a text the message must ho
     "joint_names not a list": (dict(definition=_definition(joint_names="shoulder")), "joint_names"),
     "joint_names of numbers": (dict(definition=_definition(joint_names=[1, 2])), "joint_names"),
     "joint_names empty": (dict(definition=_definition(joint_names=[])), "joint_names"),
+    "joint_names repeated": (dict(definition=_definition(joint_names=["a", "a"])), "distinct texts"),
     "joint_names one too many": (dict(definition=_definition(joint_names=["a", "b", "c"])), "coefficients_shape"),
     "durations_s a text": (dict(definition=_definition(durations_s="1, 1, 1, 1")), "durations_s"),
     "durations_s NaN": (dict(definition=_definition(durations_s=[1.0, float("nan"), 1.0, 1.0])), "durations_s[1]"),
