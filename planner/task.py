@@ -703,13 +703,25 @@ def _plain(value, path: str = "", depth: int = 0):
     return value
 
 
-def pose_entry(pose=None, *, xyz_m=None, rpy_deg=None, quat_xyzw=None, hint_deg=None) -> dict:
+def pose_entry(pose=None, *, xyz_m=None, rpy_deg=None, quat_xyzw=None, hint_deg=None,
+               where: str = "waypoints.cartesian") -> dict:
     """One Cartesian waypoint of the task schema, from a ``pinocchio.SE3`` (``pose``) or from a
-    position [m] and an orientation (``rpy_deg`` [deg], roll-pitch-yaw, or ``quat_xyzw``)."""
+    position [m] and an orientation (``rpy_deg`` [deg], roll-pitch-yaw, or ``quat_xyzw``).
+
+    Raises:
+        TaskError: at key path ``where``: ``pose`` is no SE3, or its rotation is no rotation matrix
+            (R^T R off the identity by more than the 1e-3 a quaternion's norm may be off 1, or det R < 0).
+    """
     if pose is not None:
         if not all(hasattr(pose, attribute) for attribute in ("translation", "rotation")):
-            raise TaskError("waypoints.cartesian", f"a pose must be a pinocchio.SE3, got {type(pose).__name__}")
+            raise TaskError(where, f"a pose must be a pinocchio.SE3, got {type(pose).__name__}")
         import pinocchio as pin
+        rotation = np.asarray(pose.rotation, dtype=float)
+        if rotation.shape == (3, 3) and np.isfinite(rotation).all():
+            off = float(np.abs(rotation.T @ rotation - np.eye(3)).max())
+            if off > 1e-3 or np.linalg.det(rotation) < 0:
+                what = "a reflection (det R < 0)" if off <= 1e-3 else f"R^T R is off the identity by {off:.3g}"
+                raise TaskError(where, f"the pose's rotation is not a rotation matrix: {what}")
         xyz_m, quat_xyzw = pose.translation, pin.Quaternion(pose.rotation).coeffs()  # coeffs: x, y, z, w
     entry = {"xyz_m": xyz_m, "rpy_deg": rpy_deg, "quat_xyzw": quat_xyzw, "hint_deg": hint_deg}
     return _plain({key: value for key, value in entry.items() if value is not None})
@@ -731,8 +743,9 @@ def make_task(*, name: str = "task", robot: dict | None = None, joints_deg=None,
     """
     if (joints_deg is None) == (poses is None):
         raise TaskError("waypoints", "give exactly one of joints_deg or poses")
-    waypoints = {"joints_deg": joints_deg} if poses is None else {
-        "cartesian": [entry if isinstance(entry, Mapping) else pose_entry(entry) for entry in poses]}
+    waypoints = {"joints_deg": joints_deg} if poses is None else {"cartesian": [
+        entry if isinstance(entry, Mapping) else pose_entry(entry, where=f"waypoints.cartesian[{i}]")
+        for i, entry in enumerate(poses)]}
     document = {"version": SCHEMA_VERSION, "name": name, "waypoints": waypoints}
     for key, section in (("robot", robot), ("limits", limits), ("ik", ik), ("path", path),
                          ("trajectory", trajectory), ("optimizer", optimizer)):

@@ -10,7 +10,7 @@ import pytest
 import yaml
 
 from planner import TaskError, paper
-from planner.task import RANGES, _optimizer_parameters, load_task, parse_task
+from planner.task import RANGES, _optimizer_parameters, load_task, make_task, parse_task
 from planner.timing import OPTIMIZERS
 from planner.yaml_input import MAX_FILE_BYTES, MAX_NESTING, MAX_VALUES
 
@@ -494,3 +494,15 @@ def test_path_tolerances_apply_to_linear_mode_only(key):
                    "only path.mode: linear", f"path.{key}")
     linear = parse_task(cartesian_task(path={"mode": "linear", key: 0.01}), source=PAPER_CARTESIAN)
     assert linear.path.mode == "linear"
+
+
+@pytest.mark.parametrize("rotation, message", [(np.diag([2.0, 1.0, 1.0]), r"R\^T R is off the identity by 3"),
+                                               (np.diag([-1.0, 1.0, 1.0]), r"a reflection \(det R < 0\)")])
+def test_a_pose_whose_rotation_is_no_rotation_is_refused_by_its_index(rotation, message):
+    """It was read as a quaternion the user never gave ('quat_xyzw: must be a unit quaternion, norm is 1.118')."""
+    import pinocchio as pin
+
+    poses = [pin.SE3.Identity(), pin.SE3(rotation, np.zeros(3))]
+    error = assert_refused(lambda: make_task(robot={"name": "ur5", "tool_frame": "tool0"}, poses=poses),
+                           "the pose's rotation is not a rotation matrix: " + message, "waypoints.cartesian[1]")
+    assert "quat" not in str(error)
