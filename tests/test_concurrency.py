@@ -1,4 +1,5 @@
 import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -134,3 +135,44 @@ def test_the_time_limit_ends_nlp_starts_that_run_over(monkeypatch):
     assert time.monotonic() - started < 60
     assert result.stop_reason == "time limit of 2 s reached" and result.feasible
     assert problem.evaluate_durations(result.durations[None]).feasible[0]
+
+
+def test_children_end_when_their_parent_is_killed_outright(tmp_path):
+    """SIGKILL runs no cleanup in the parent: its children (output writers holding the folder's lock)
+    outlived it by a second or more. The kernel now ends them with it (Linux)."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    script = tmp_path / "parent.py"
+    script.write_text(
+        "import os, sys, time\n"
+        "sys.path.insert(0, sys.argv[1])\n"
+        "from planner.concurrency import map_forked\n"
+        "def work(item):\n"
+        "    if item:\n"
+        "        open(sys.argv[2], 'w').write(str(os.getpid()))\n"
+        "    time.sleep(60)\n"
+        "map_forked(work, [0, 1], 2)\n")
+    pid_file = tmp_path / "child.pid"
+    parent = subprocess.Popen([sys.executable, str(script), str(Path(__file__).resolve().parents[1]), str(pid_file)])
+    deadline = time.monotonic() + 30
+    while not (pid_file.exists() and pid_file.read_text()) and time.monotonic() < deadline:
+        time.sleep(0.02)
+    child = int(pid_file.read_text())
+    parent.send_signal(signal.SIGKILL)
+    parent.wait(timeout=10)
+    deadline = time.monotonic() + 5
+    while time.monotonic() < deadline:
+        try:
+            os.kill(child, 0)
+        except ProcessLookupError:
+            break
+        status = Path(f"/proc/{child}/stat").read_text().split()[2] if Path(f"/proc/{child}/stat").exists() else "X"
+        if status == "Z":  # ended; waiting for init to reap it
+            break
+        time.sleep(0.05)
+    else:
+        os.kill(child, signal.SIGKILL)
+        raise AssertionError("the child outlived its killed parent by 5 s")
