@@ -180,38 +180,41 @@ class RobotLimitOutcome:
     slow_down: float
     check: RobotLimitCheck
 
+    def _peaks(self) -> dict[str, tuple]:
+        """Each limited quantity's largest magnitude at the samples and its limit: ``torque`` ((J,) per
+        joint [N m]), ``tool_speed`` [m/s], ``tool_angular_speed`` [rad/s], for the limits given."""
+        check = self.check
+        peaks: dict[str, tuple] = {}
+        if check.torque is not None and self.torque_limit is not None:
+            peaks["torque"] = (np.abs(check.torque).max(axis=0), self.torque_limit)
+        if check.tool_speed is not None and self.tool_speed is not None:
+            peaks["tool_speed"] = (float(check.tool_speed.max()), self.tool_speed)
+        if check.tool_angular_speed is not None and self.tool_angular_speed is not None:
+            peaks["tool_angular_speed"] = (float(check.tool_angular_speed.max()), self.tool_angular_speed)
+        return peaks
+
     def largest_ratios(self) -> dict[str, float]:
         """The largest ratio to its limit of each limited quantity at the samples: ``torque`` (over the
         joints), ``tool_speed``, ``tool_angular_speed``."""
-        check, ratios = self.check, {}
-        if check.torque is not None and self.torque_limit is not None:
-            ratios["torque"] = float((np.abs(check.torque) / self.torque_limit).max())
-        if check.tool_speed is not None and self.tool_speed is not None:
-            ratios["tool_speed"] = float(check.tool_speed.max()) / self.tool_speed
-        if check.tool_angular_speed is not None and self.tool_angular_speed is not None:
-            ratios["tool_angular_speed"] = float(check.tool_angular_speed.max()) / self.tool_angular_speed
-        return ratios
+        return {quantity: float(np.max(peak / limit)) for quantity, (peak, limit) in self._peaks().items()}
 
     def summary(self) -> dict[str, object]:
         """The largest |torque| per joint [N m] and its ratio to the limit, and the largest tool
         speeds and their ratios (for the limits given), the slow-down and the sampling."""
-        check = self.check
-        figures: dict[str, object] = {"slow_down": self.slow_down, "samples": len(check.times),
+        figures: dict[str, object] = {"slow_down": self.slow_down, "samples": len(self.check.times),
                                       "sampling": f"{SAMPLE_RATE_HZ:g} Hz, at least {MIN_SAMPLES_PER_SEGMENT} per "
                                                   f"segment, at most {MAX_SAMPLES} in all"}
-        if check.torque is not None and self.torque_limit is not None:
-            peak = np.abs(check.torque).max(axis=0)
-            figures.update(torque_limit_nm=self.torque_limit, max_abs_torque_nm=peak,
-                           torque_ratio=peak / self.torque_limit)
-        if check.tool_speed is not None and self.tool_speed is not None:
-            peak = float(check.tool_speed.max())
-            figures.update(tool_speed_limit_m_s=self.tool_speed, max_tool_speed_m_s=peak,
-                           tool_speed_ratio=peak / self.tool_speed)
-        if check.tool_angular_speed is not None and self.tool_angular_speed is not None:
-            peak = float(check.tool_angular_speed.max())
-            figures.update(tool_speed_limit_deg_s=math.degrees(self.tool_angular_speed),
-                           max_tool_speed_deg_s=math.degrees(peak),
-                           tool_angular_speed_ratio=peak / self.tool_angular_speed)
+        peaks = self._peaks()
+        if "torque" in peaks:
+            peak, limit = peaks["torque"]
+            figures.update(torque_limit_nm=limit, max_abs_torque_nm=peak, torque_ratio=peak / limit)
+        if "tool_speed" in peaks:
+            peak, limit = peaks["tool_speed"]
+            figures.update(tool_speed_limit_m_s=limit, max_tool_speed_m_s=peak, tool_speed_ratio=peak / limit)
+        if "tool_angular_speed" in peaks:
+            peak, limit = peaks["tool_angular_speed"]
+            figures.update(tool_speed_limit_deg_s=math.degrees(limit), max_tool_speed_deg_s=math.degrees(peak),
+                           tool_angular_speed_ratio=peak / limit)
         return figures
 
 

@@ -404,11 +404,11 @@ def _link_visuals(urdf_path) -> dict[str, list[tuple[np.ndarray, float]]]:
     """Each link's visual shapes as (centre in the link's frame [m], half their size [m]), from the URDF;
     meshes count as ``_LINK_REACH`` around their origin. A shape at or beyond ``_FRAMED_SIZE_M`` (or not
     a number) is left out: the view frames the arm, not a 1e300 m box."""
-    import xml.etree.ElementTree as ElementTree
+    from .robot import urdf_elements  # the robot is loaded: so is its module
 
     visuals: dict[str, list[tuple[np.ndarray, float]]] = {}
     try:
-        for link in ElementTree.parse(urdf_path).getroot().iter("link"):
+        for link in urdf_elements(urdf_path, "link"):
             for visual in link.iter("visual"):
                 origin = visual.find("origin")
                 centre = np.fromstring(origin.get("xyz", "0 0 0"), sep=" ") if origin is not None else np.zeros(3)
@@ -423,7 +423,7 @@ def _link_visuals(urdf_path) -> dict[str, list[tuple[np.ndarray, float]]]:
                         size = float(shape.get("radius", 0))
                 if centre.shape == (3,) and np.abs(centre).max() < _FRAMED_SIZE_M and 0 <= size < _FRAMED_SIZE_M:
                     visuals.setdefault(link.get("name") or "", []).append((centre, size))
-    except (OSError, ValueError, ElementTree.ParseError):  # framing is a nicety: link frames alone then
+    except ValueError:  # a number that is none: framing is a nicety, link frames alone then
         return {}
     return visuals
 

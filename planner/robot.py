@@ -32,6 +32,7 @@ from .errors import (
 )
 from .limits import LIMIT_DEG_RANGE, LIMITED, JointLimits
 from .native_output import stderr_captured
+from .validate import positive_finite
 from .yaml_input import read_yaml
 
 #: Largest URDF file loaded [bytes]: the parser reads about 1 MB/s of XML.
@@ -243,7 +244,7 @@ def _mesh_file(filename: str, urdf_path: Path, package_dirs) -> Path | None:
     return path if path.is_absolute() else urdf_path.parent / path
 
 
-def _urdf_elements(urdf_path: Path, tag: str) -> list:
+def urdf_elements(urdf_path: Path, tag: str) -> list:
     """The ``<tag>`` elements directly under the URDF's ``<robot>`` (ElementTree elements); [] where
     the file cannot be read as plain XML (a dialect Pinocchio reads and ElementTree does not)."""
     import xml.etree.ElementTree as ElementTree
@@ -257,7 +258,7 @@ def _urdf_elements(urdf_path: Path, tag: str) -> list:
 def _negative_limit(urdf_path: Path) -> str:
     """The first ``<limit velocity|effort>`` of the URDF below zero, as ``joint 'j1': <limit velocity>
     must be >= 0, got -2``; '' if none. Pinocchio refuses such a file without naming the joint."""
-    for joint in _urdf_elements(urdf_path, "joint"):
+    for joint in urdf_elements(urdf_path, "joint"):
         for limit in joint.findall("limit"):
             for attribute in ("velocity", "effort"):
                 try:
@@ -274,13 +275,13 @@ def _bad_mass(urdf_path: Path) -> str:
     """The first link whose ``<inertial><mass value>`` is not a finite number >= 0, as ``link 'l2':
     <mass value> must be a finite number >= 0, got 'nan'``; '' if none. Pinocchio's parser leaves a link
     of unreadable mass massless and takes a negative one as it is, so the torques would be wrong."""
-    for link in _urdf_elements(urdf_path, "link"):
+    for link in urdf_elements(urdf_path, "link"):
         for mass in link.findall("inertial/mass"):
             try:
-                valid = math.isfinite(float(mass.get("value", ""))) and float(mass.get("value", "")) >= 0
+                value = float(mass.get("value", ""))
             except ValueError:
-                valid = False
-            if not valid:
+                value = math.nan
+            if not (math.isfinite(value) and value >= 0):
                 return (f"link {shown(link.get('name'), 60)}: <mass value> must be a finite number >= 0, got "
                         f"{shown(mass.get('value'), 40)}")
     return ""
@@ -288,7 +289,7 @@ def _bad_mass(urdf_path: Path) -> str:
 
 def _mimic_joints(urdf_path: Path) -> list[str]:
     """Names of the URDF's joints that copy another (``<mimic joint=...>``); Pinocchio ignores the tag."""
-    return [joint.get("name", "") for joint in _urdf_elements(urdf_path, "joint") if joint.find("mimic") is not None]
+    return [joint.get("name", "") for joint in urdf_elements(urdf_path, "joint") if joint.find("mimic") is not None]
 
 
 def _check_meshes(urdf_path: Path, package_dirs) -> tuple[str, ...]:
@@ -300,7 +301,7 @@ def _check_meshes(urdf_path: Path, package_dirs) -> tuple[str, ...]:
         RobotError: naming the link, the mesh and what it is.
     """
     missing: list[str] = []
-    for link in _urdf_elements(urdf_path, "link"):
+    for link in urdf_elements(urdf_path, "link"):
         for mesh in link.iter("mesh"):
             named = mesh.get("filename") or ""
             try:
@@ -334,16 +335,6 @@ def _detail(log: list[str]) -> str:
     return f" ({line})" if line else ""
 
 
-def _positive_finite(value) -> bool:
-    """Whether ``value`` is a real number (not a boolean), finite and > 0."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        return False
-    try:
-        return math.isfinite(value) and value > 0
-    except OverflowError:  # an integer too large for a float
-        return False
-
-
 def _read_limit_file(path: Path, model: pin.Model) -> dict[str, dict[str, float]]:
     """Acceleration and jerk limits of ``<robot>.limits.yaml``: one value [deg/s^2, deg/s^3] per joint
     of ``model``, in file order; returned in SI by quantity and joint name. {} if there is no file."""
@@ -375,7 +366,7 @@ def _read_limit_file(path: Path, model: pin.Model) -> dict[str, dict[str, float]
                                  f"per joint ({', '.join(joints)}), got {shown(values)}", path=path)
         low, high = LIMIT_DEG_RANGE
         for joint, value in zip(joints, values):
-            if not _positive_finite(value) or not low <= value <= high:
+            if not positive_finite(value) or not low <= value <= high:
                 raise RobotFileError(f"limits file {path}: {key} of joint {joint!r} must be a number >= {low:g} and "
                                      f"<= {high:g}, got {shown(value)}", path=path)
         limits[quantity] = {joint: math.radians(value) for joint, value in zip(joints, values)}

@@ -109,6 +109,9 @@ ANGLE_DEG = Range(-1e5, 1e5)
 LIMIT_DEG = Range(*LIMIT_DEG_RANGE)
 #: Every tool position coordinate [m].
 POSITION_M = Range(-1e4, 1e4)
+#: How far a quaternion's norm may be from 1, and a pose's R^T R from the identity (entrywise), before the
+#: orientation is refused rather than normalised.
+UNIT_TOLERANCE = 1e-3
 #: Every joint torque limit [N m]: a micro-actuator's to a large press's.
 TORQUE_NM = Range(1e-6, 1e7)
 #: Allowed values of every single number of a task, by key path; ``bool`` marks a true/false
@@ -389,7 +392,7 @@ def _cartesian_waypoint(value, path: str) -> CartesianWaypoint:
     else:
         quaternion = _vector(entry["quat_xyzw"], f"{path}.quat_xyzw", Range(-math.inf), 4)
         norm = math.hypot(*quaternion)  # no overflow warning for huge entries: inf, refused below
-        if not abs(norm - 1.0) <= 1e-3:
+        if not abs(norm - 1.0) <= UNIT_TOLERANCE:
             raise TaskError(f"{path}.quat_xyzw", f"must be a unit quaternion, norm is {norm:.6g}")
         quaternion = quaternion / norm
     hint = np.deg2rad(_vector(entry["hint_deg"], f"{path}.hint_deg", ANGLE_DEG)) if "hint_deg" in entry else None
@@ -418,13 +421,14 @@ _ROBOT_LIMIT_KEYS = ("torque_nm", "tool_speed_m_s", "tool_speed_deg_s")
 def _robot_limits(section: dict, path: str) -> RobotAwareLimits:
     """``torque_nm`` (a list, or ``urdf``), ``tool_speed_m_s`` and ``tool_speed_deg_s`` of a limits section."""
     torque: np.ndarray | str | None = None
-    if "torque_nm" in section:
-        given = section["torque_nm"]
-        torque = "urdf" if given == "urdf" else _vector(given, f"{path}.torque_nm", TORQUE_NM) \
-            if isinstance(given, (list, tuple)) else None
-        if torque is None:
-            raise TaskError(f"{path}.torque_nm", f"must be a list of torques [N m], one per joint, or urdf (the "
-                                                 f"URDF's efforts), got {shown(given)}")
+    given = section.get("torque_nm")
+    if given == "urdf":
+        torque = "urdf"
+    elif isinstance(given, (list, tuple)):
+        torque = _vector(given, f"{path}.torque_nm", TORQUE_NM)
+    elif "torque_nm" in section:
+        raise TaskError(f"{path}.torque_nm", f"must be a list of torques [N m], one per joint, or urdf (the "
+                                             f"URDF's efforts), got {shown(given)}")
     speed = _ranged(section["tool_speed_m_s"], f"{path}.tool_speed_m_s") if "tool_speed_m_s" in section else None
     angular = _ranged(section["tool_speed_deg_s"], f"{path}.tool_speed_deg_s") \
         if "tool_speed_deg_s" in section else None
@@ -710,7 +714,7 @@ def pose_entry(pose=None, *, xyz_m=None, rpy_deg=None, quat_xyzw=None, hint_deg=
 
     Raises:
         TaskError: at key path ``where``: ``pose`` is no SE3, or its rotation is no rotation matrix
-            (R^T R off the identity by more than the 1e-3 a quaternion's norm may be off 1, or det R < 0).
+            (R^T R off the identity by more than ``UNIT_TOLERANCE``, or det R < 0).
     """
     if pose is not None:
         if not all(hasattr(pose, attribute) for attribute in ("translation", "rotation")):
@@ -719,8 +723,8 @@ def pose_entry(pose=None, *, xyz_m=None, rpy_deg=None, quat_xyzw=None, hint_deg=
         rotation = np.asarray(pose.rotation, dtype=float)
         if rotation.shape == (3, 3) and np.isfinite(rotation).all():
             off = float(np.abs(rotation.T @ rotation - np.eye(3)).max())
-            if off > 1e-3 or np.linalg.det(rotation) < 0:
-                what = "a reflection (det R < 0)" if off <= 1e-3 else f"R^T R is off the identity by {off:.3g}"
+            if off > UNIT_TOLERANCE or np.linalg.det(rotation) < 0:
+                what = f"R^T R is off the identity by {off:.3g}" if off > UNIT_TOLERANCE else "a reflection (det R < 0)"
                 raise TaskError(where, f"the pose's rotation is not a rotation matrix: {what}")
         xyz_m, quat_xyzw = pose.translation, pin.Quaternion(pose.rotation).coeffs()  # coeffs: x, y, z, w
     entry = {"xyz_m": xyz_m, "rpy_deg": rpy_deg, "quat_xyzw": quat_xyzw, "hint_deg": hint_deg}

@@ -1,6 +1,9 @@
-"""Input checks shared by every stage: finite arrays of a stated shape."""
+"""Input checks shared by every stage: finite arrays of a stated shape, positive finite numbers."""
 
 from __future__ import annotations
+
+import math
+import numbers
 
 import numpy as np
 
@@ -46,3 +49,15 @@ def positive_durations(name: str, value, count: int | None = None) -> np.ndarray
         index = tuple(int(i) for i in bad[0])
         raise InputError(f"{name}{list(index)} is {array[index]} s; durations must be > 0")
     return array
+
+
+def positive_finite(value) -> bool:
+    """Whether ``value`` is a real number (not a boolean), finite and > 0 (an integer too large for a
+    float is not)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        return False
+    try:
+        number = float(value)
+    except OverflowError:
+        return False
+    return math.isfinite(number) and number > 0

@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import inspect
-import math
-import numbers
 from typing import Callable
 
 from ..errors import InputError
+from ..validate import positive_finite
 from .baselines import multistart_slsqp, particle_swarm, scipy_differential_evolution
 from .cuckoo import cuckoo_search
 from .nlp import nlp_refine, nlp_settings
@@ -76,8 +75,7 @@ def optimize(problem: TimingProblem, algorithm: str = "default", *, time_limit_s
             found so far (``stop_reason`` says so; every optimizer but ``cuckoo-paper``, which scores
             raw penalised durations, holds a feasible candidate from its first evaluation on). None: no limit.
     """
-    if time_limit_s is not None and not (isinstance(time_limit_s, numbers.Real) and not isinstance(time_limit_s, bool)
-                                         and math.isfinite(time_limit_s) and time_limit_s > 0):
+    if time_limit_s is not None and not positive_finite(time_limit_s):
         raise InputError(f"time_limit_s must be a finite number of seconds > 0, or None for no limit; "
                          f"got {time_limit_s!r}")
     try:

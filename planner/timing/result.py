@@ -160,10 +160,9 @@ class SearchTracker:
         return self._track(self.problem.evaluate_states(durations, states))
 
     def _track(self, evaluation: Evaluation) -> Evaluation:
-        """Count ``evaluation``'s candidates, offer them as the best and stop at the time limit."""
-        self.evaluations += len(evaluation.objective)
+        """Offer ``evaluation``'s candidates as the best, count them and stop at the time limit."""
         self._offer(evaluation)
-        self._check_time()
+        self.count(len(evaluation.objective))
         return evaluation
 
     def count(self, evaluations: int) -> None:
