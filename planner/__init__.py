@@ -20,6 +20,7 @@ from .errors import (
     RecordingError,
     RobotError,
     RobotFileError,
+    SettingError,
     TaskError,
     UnknownFrameError,
     UnknownRobotError,
@@ -41,7 +42,7 @@ _LAZY = {
 __all__ = [
     "FAMILIES", "IKError", "InfeasibleError", "InputError", "JointLimits", "KinematicFigures", "MissingLimitError",
     "OutputError", "PiecewisePolynomial", "PlanResult", "PlannerError", "RecordingError", "Robot", "RobotError",
-    "RobotFileError", "SplineFamily", "Task", "TaskError", "UnknownFrameError", "UnknownRobotError",
+    "RobotFileError", "SettingError", "SplineFamily", "Task", "TaskError", "UnknownFrameError", "UnknownRobotError",
     "UnsupportedRobotError", "ViewerError", "get_family", "kinematic_figures", "load_task", "make_task", "plan",
     "pose_entry", "time_scale_factor",
 ]

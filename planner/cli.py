@@ -88,26 +88,29 @@ def _replay(args) -> int:
     at = total / 2 if args.time is None else args.time
     if args.screenshot is not None and not 0.0 <= at <= total:
         raise InputError(f"--time {args.time:g} s is outside the recording's 0 to {total:.4f} s")
-    code = 0
+    if args.check:  # first: exports of a recording that fails its check are not written
+        check = recorded.check()
+        findings = (["VIOLATIONS: " + "; ".join(check.violations)] if check.violations else []) + (
+            ["SAMPLES OFF THE TRAJECTORY"] if check.deviation > check.tolerance else [])
+        skipped = [option for option, given in (("--export-csv", target), ("--screenshot", args.screenshot))
+                   if given is not None and not check.passed]
+        print(f"{args.recording}: {len(recorded.joint_names)} joints, {len(recorded.times)} samples, "
+              f"T = {recorded.trajectory.total_time:.4f} s, largest ratio {check.largest_ratio:.4f}, "
+              f"samples vs trajectory {check.deviation:.2e} rad (allowed {check.tolerance:.2e}), "
+              f"{', '.join(findings) or 'limits hold'}"
+              + (f"; {' and '.join(skipped)} not written: the check failed" if skipped else ""))
+        if not check.passed:
+            return 1
     with ExitStack() as files:  # the CSV and the screenshot are published together, or neither is
         if target is not None:
             staging = files.enter_context(atomic_file(target, force=args.force))
             write_trajectory_csv(staging, recorded.trajectory, recorded.rate_hz, recorded.joint_names)
-        if args.check:
-            check = recorded.check()
-            findings = (["VIOLATIONS: " + "; ".join(check.violations)] if check.violations else []) + (
-                ["SAMPLES OFF THE TRAJECTORY"] if check.deviation > check.tolerance else [])
-            print(f"{args.recording}: {len(recorded.joint_names)} joints, {len(recorded.times)} samples, "
-                  f"T = {recorded.trajectory.total_time:.4f} s, largest ratio {check.largest_ratio:.4f}, "
-                  f"samples vs trajectory {check.deviation:.2e} rad (allowed {check.tolerance:.2e}), "
-                  f"{', '.join(findings) or 'limits hold'}")
-            code = 0 if check.passed else 1
         if args.screenshot is not None:
             from .screenshot import render_screenshot
             render_screenshot(args.recording, files.enter_context(atomic_file(args.screenshot, force=args.force)), at)
     if args.screenshot is None and not args.check and target is None:
         open_in_viewer(args.recording, command=_command())
-    return code
+    return 0
 
 
 def _command() -> str:

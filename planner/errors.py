@@ -70,6 +70,15 @@ class InputError(PlannerError, ValueError):
     exit_code = 2
 
 
+class SettingError(InputError):
+    """An optimizer setting that the optimizer does not take, or outside its range."""
+
+    def __init__(self, setting: str, problem: str):
+        self.setting = setting
+        self.problem = problem
+        super().__init__(f"optimizer setting {setting}: {problem}")
+
+
 class TaskError(InputError):
     """A task file that does not follow the schema; the message names the key path."""
 

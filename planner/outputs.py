@@ -62,7 +62,8 @@ def _absolute(path, what: str) -> Path:
     """``path`` as an absolute path with symbolic links resolved; an empty path is refused.
 
     Raises:
-        OutputError: an empty path, one that is not text or a path-like, holds a NUL, or cannot be resolved.
+        OutputError: an empty path, one that is not text or a path-like, holds a NUL or bytes that are not
+            UTF-8, or cannot be resolved.
     """
     if not isinstance(path, (str, os.PathLike)):
         raise OutputError(f"{what} must be a path (text or path-like), not {type(path).__name__}")
@@ -74,9 +75,23 @@ def _absolute(path, what: str) -> Path:
     if "\0" in text:
         raise OutputError(f"{what} {shown(text)} holds a NUL character")
     try:
-        return Path(os.path.abspath(text)).resolve()
+        absolute = Path(os.path.abspath(text)).resolve()
     except (OSError, RuntimeError) as exc:  # a symlink loop, a name too long
         raise OutputError(f"{what} {shown(text)}: {getattr(exc, 'strerror', None) or exc}") from None
+    if not utf8_path(absolute):
+        raise OutputError(f"{what} {shown(str(absolute))}: the path holds bytes that are not UTF-8 (shown as "
+                          f"\\udcXX); Rerun writes recordings and screenshots at UTF-8 paths only: choose another")
+    return absolute
+
+
+def utf8_path(path: Path) -> bool:
+    """Whether ``path`` is text that encodes as UTF-8 (a name read from bytes that are not UTF-8 holds
+    surrogates, which Rerun, taking paths as UTF-8 strings, refuses)."""
+    try:
+        str(path).encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
 
 
 def check_writable_location(path: Path, what: str) -> None:

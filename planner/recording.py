@@ -56,6 +56,7 @@ import numpy as np
 from .errors import InputError, RecordingError, ViewerError, shown
 from .kinematics import kinematic_figures
 from .limits import DEGREE_UNITS, PROFILE_QUANTITIES, QUANTITIES, JointLimits
+from .outputs import utf8_path
 from .splines import PiecewisePolynomial
 
 APPLICATION_ID = "planner"
@@ -544,9 +545,14 @@ def read_recording(path) -> RecordedPlan:
     if isinstance(path, str) and not path.strip():
         raise RecordingError("the recording's path is empty (an unset shell variable?); give a path")
     path = Path(path)
+    if not utf8_path(path.absolute()):
+        raise RecordingError(f"{shown(str(path.absolute()))}: the path holds bytes that are not UTF-8 (shown as "
+                             f"\\udcXX); Rerun reads recordings at UTF-8 paths only: rename or link it")
     if not path.is_file():
         what = ("a folder: give the .rrd file in it" if path.is_dir() else
-                "not a regular file (a device or pipe)" if path.exists() else "no such recording")
+                "not a regular file (a device or pipe)" if path.exists() else
+                "a symbolic link to nothing (its target is missing, or the links form a loop)"
+                if path.is_symlink() else "no such recording")
         raise RecordingError(f"{path}: {what}")
     application, chunks = _trajectory_chunks(path)
     if not chunks.keys() & {_DEFINITION, _SAMPLES, _END} and application != APPLICATION_ID:

@@ -47,13 +47,14 @@ from typing import Any
 
 import numpy as np
 
-from .errors import SHOWN_VALUE_CHARS, TaskError, shown
+from .errors import SHOWN_VALUE_CHARS, InputError, SettingError, TaskError, shown
 from .ik import BRANCH_RULES
 from .limits import LIMIT_DEG_RANGE, LIMITED, PROFILE_QUANTITIES
 from .read_only import freeze_arrays
 from .splines import FAMILIES
-from .timing import NOT_SETTINGS, OPTIMIZERS, settings_signature
+from .timing import NOT_SETTINGS, OPTIMIZERS, SETTING_RANGES, checked_settings, settings_signature
 from .timing.problem import OBJECTIVES
+from .validate import MAX_SEED, Range, number, ranged, within
 from .yaml_input import MAX_NESTING, key_path, read_yaml
 
 SCHEMA_VERSION = 1
@@ -62,8 +63,6 @@ MAX_NAME_CHARS = 200
 #: Default shortest segment duration [s]: one period of a 1 kHz controller. Merged repeated
 #: via-points keep their zero-length segment.
 MIN_SEGMENT_S = 1e-3
-#: Largest seed of the random generators (numpy takes seeds in [0, 2^63) here).
-MAX_SEED = 2**63 - 1
 #: Most via-points a task may plan (its waypoints, and with ``path.mode: linear`` the poses
 #: inserted between them): the timing scales to thousands, and 5000 via-points are already
 #: a trajectory to be split.
@@ -81,27 +80,6 @@ TIME_LIMIT_S = 120.0
 _CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029\u200e\u200f\u202a-\u202e\u2066-\u2069]")
 
 
-@dataclass(frozen=True)
-class Range:
-    """Allowed values of one number of a task: ``low`` to ``high`` (both included unless
-    ``low_open``), whole numbers only if ``integer``."""
-
-    low: float
-    high: float = math.inf
-    integer: bool = False
-    low_open: bool = False
-
-    def __contains__(self, value: float) -> bool:
-        return (value > self.low if self.low_open else value >= self.low) and value <= self.high
-
-    def __str__(self) -> str:
-        text = f"{'an integer ' if self.integer else ''}{'>' if self.low_open else '>='} {self.low:g}"
-        if self.high == math.inf:
-            return text
-        return f"{text} and <= {self.high if isinstance(self.high, int) else format(self.high, 'g')}"
-
-
-_COUNT = 10_000
 #: Every number in a list of angles (joint waypoints, ranges, hints, start, roll-pitch-yaw) [deg]:
 #: 277 turns either way. Caps like these catch unit mistakes and keep the arithmetic finite.
 ANGLE_DEG = Range(-1e5, 1e5)
@@ -132,20 +110,7 @@ RANGES: dict[str, Range | type] = {
     "optimizer.bounds_s[1]": Range(0, 86_400, low_open=True),          # h_max [s]
     "optimizer.weights[0]": Range(1e-6, 1e6),                          # K_t [1/s]
     "optimizer.weights[1]": Range(0, 1e6),                             # K_j [s^5/rad^2]
-    "optimizer.nests": Range(2, _COUNT, integer=True),                 # Cuckoo Search
-    "optimizer.iterations": Range(1, 100_000, integer=True),           # Cuckoo Search, PSO, SLSQP
-    "optimizer.pa": Range(0, 1),
-    "optimizer.alpha": Range(0, 10, low_open=True),
-    "optimizer.beta": Range(1, 2, low_open=True),
-    "optimizer.polish": bool,
-    "optimizer.refine_starts": Range(1, _COUNT, integer=True),         # also at most nests
-    "optimizer.particles": Range(2, _COUNT, integer=True),             # PSO
-    "optimizer.inertia": Range(0, 1),
-    "optimizer.cognitive": Range(0, 4),
-    "optimizer.social": Range(0, 4),
-    "optimizer.population": Range(1, 1_000, integer=True),             # differential evolution
-    "optimizer.evaluations": Range(1, 10_000_000, integer=True),
-    "optimizer.starts": Range(1, _COUNT, integer=True),                # SLSQP
+    **{f"optimizer.{name}": rule for name, rule in SETTING_RANGES.items()},
 }
 
 
@@ -276,49 +241,27 @@ def _mapping(value, path: str, allowed) -> dict:
 
 
 def _number(value, path: str, *, integer: bool = False) -> float:
-    """``value`` as a finite float (or int if ``integer``); booleans and strings are not numbers."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise TaskError(path, f"must be a number, got {shown(value)}{_text_number_hint(value)}")
-    if isinstance(value, int) and not integer:
-        try:
-            value = float(value)
-        except OverflowError:
-            raise TaskError(path, f"must be a finite number, got {shown(value)}") from None
-    if isinstance(value, float) and not math.isfinite(value):
-        raise TaskError(path, f"must be a finite number, got {value}")
-    if integer and int(value) != value:
-        raise TaskError(path, f"must be a whole number, got {value}")
-    return int(value) if integer else value
-
-
-def _text_number_hint(value) -> str:
-    """A hint for text that reads as a finite number (a quoted number, say), else ''."""
-    if not isinstance(value, str) or len(value) > 40:
-        return ""
+    """``value`` as a finite float (or int if ``integer``): ``validate.number``, its error at key ``path``."""
     try:
-        finite = math.isfinite(float(value))
-    except ValueError:
-        return ""
-    if not value.isascii():  # Python reads other scripts' digits (Arabic-Indic, ...); YAML does not
-        return " (digits other than 0-9: write the number with 0-9)" if finite else ""
-    return " (text: write the number without quotes)" if finite else ""
+        return number(value, integer=integer)
+    except InputError as exc:
+        raise TaskError(path, str(exc)) from None
 
 
 def _ranged(value, path: str):
     """``value`` checked against ``RANGES[path]``: a number in its range, or true/false."""
-    rule = RANGES[path]
-    if not isinstance(rule, Range):  # bool
-        if not isinstance(value, bool):
-            raise TaskError(path, f"must be true or false, got {shown(value)}")
-        return value
-    return _within(_number(value, path, integer=rule.integer), value, path, rule)
+    try:
+        return ranged(value, RANGES[path])
+    except InputError as exc:
+        raise TaskError(path, str(exc)) from None
 
 
 def _within(number, given, path: str, rule: Range):
     """``number`` (read from ``given``) if it is in ``rule``; else a ``TaskError`` at ``path``."""
-    if number not in rule:
-        raise TaskError(path, f"must be {rule}, got {shown(given)}")
-    return number
+    try:
+        return within(number, rule, given)
+    except InputError as exc:
+        raise TaskError(path, str(exc)) from None
 
 
 def _vector(value, path: str, rule: Range, length: int | None = None) -> np.ndarray:
@@ -523,7 +466,7 @@ def _optimizer(value, path: str) -> dict:
         elif key in ("bounds_s", "weights"):
             if not isinstance(item, (list, tuple)) or len(item) != 2:
                 raise TaskError(where, f"must be a list of 2 numbers, got {shown(item)}")
-            pair = tuple(float(_ranged(number, f"{where}[{i}]")) for i, number in enumerate(item))
+            pair = tuple(float(_ranged(entry, f"{where}[{i}]")) for i, entry in enumerate(item))
             if key == "bounds_s" and pair[0] > pair[1]:
                 raise TaskError(where, f"lower bound {pair[0]} exceeds upper bound {pair[1]}")
             result["bounds" if key == "bounds_s" else "weights"] = pair
@@ -534,9 +477,10 @@ def _optimizer(value, path: str) -> dict:
     if "weights" in section and result["objective"] != "time-jerk":
         raise TaskError(f"{path}.weights", f"only the time-jerk objective has weights (here {path}.objective is "
                                            f"{result['objective']}): remove them, or set objective: time-jerk")
-    if "refine_starts" in settings and "nests" in settings and settings["refine_starts"] > settings["nests"]:
-        raise TaskError(f"{path}.refine_starts", f"must be at most nests ({settings['nests']}), "
-                                                 f"got {settings['refine_starts']}")
+    try:
+        checked_settings(algorithm, settings)
+    except SettingError as exc:
+        raise TaskError(f"{path}.{exc.setting}", exc.problem) from None
     return result
 
 
@@ -731,9 +675,9 @@ def pose_entry(pose=None, *, xyz_m=None, rpy_deg=None, quat_xyzw=None, hint_deg=
     return _plain({key: value for key, value in entry.items() if value is not None})
 
 
-def make_task(*, name: str = "task", robot: dict | None = None, joints_deg=None, poses=None,
+def make_task(*positional, name: str = "task", robot: dict | None = None, joints_deg=None, poses=None,
               limits: dict | None = None, ik: dict | None = None, path: dict | None = None,
-              trajectory: dict | None = None, optimizer: dict | None = None) -> Task:
+              trajectory: dict | None = None, optimizer: dict | None = None, **unknown) -> Task:
     """A task built in Python, validated exactly as a task file (``parse_task``; errors name the same keys).
 
     Args:
@@ -744,7 +688,16 @@ def make_task(*, name: str = "task", robot: dict | None = None, joints_deg=None,
             (numpy arrays are accepted wherever the file has lists).
 
     Relative URDF paths are taken from the working directory.
+
+    Raises:
+        TaskError: as ``parse_task``, and for a positional argument or a keyword that is no section.
     """
+    keywords = "name, robot, joints_deg or poses, limits, ik, path, trajectory, optimizer"
+    if positional:
+        raise TaskError("", f"make_task takes keywords only ({keywords}); got {len(positional)} positional "
+                            f"argument{'s' * (len(positional) > 1)}")
+    if unknown:
+        raise TaskError(shown(next(iter(unknown)))[1:-1], f"is no keyword of make_task; it takes {keywords}")
     if (joints_deg is None) == (poses is None):
         raise TaskError("waypoints", "give exactly one of joints_deg or poses")
     waypoints = {"joints_deg": joints_deg} if poses is None else {"cartesian": [

@@ -1,13 +1,93 @@
-"""Input checks shared by every stage: finite arrays of a stated shape, positive finite numbers."""
+"""Input checks shared by every stage: finite arrays of a stated shape, positive finite numbers, single
+numbers in a stated range (a task file's and an optimizer's settings alike)."""
 
 from __future__ import annotations
 
 import math
 import numbers
+from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import InputError
+from .errors import InputError, shown
+
+#: Largest seed of the random generators (numpy takes seeds in [0, 2^63) here).
+MAX_SEED = 2**63 - 1
+
+
+@dataclass(frozen=True)
+class Range:
+    """Allowed values of one number: ``low`` to ``high`` (both included unless ``low_open``), whole
+    numbers only if ``integer``."""
+
+    low: float
+    high: float = math.inf
+    integer: bool = False
+    low_open: bool = False
+
+    def __contains__(self, value: float) -> bool:
+        return (value > self.low if self.low_open else value >= self.low) and value <= self.high
+
+    def __str__(self) -> str:
+        text = f"{'an integer ' if self.integer else ''}{'>' if self.low_open else '>='} {self.low:g}"
+        if self.high == math.inf:
+            return text
+        return f"{text} and <= {self.high if isinstance(self.high, int) else format(self.high, 'g')}"
+
+
+def number(value, *, integer: bool = False) -> float:
+    """``value`` as a finite float (or int if ``integer``); booleans and text are not numbers, numpy
+    scalars are.
+
+    Raises:
+        InputError: whose message is the problem alone ("must be a number, got 'x'"), for the caller to
+            prefix with the name of what was given.
+    """
+    if isinstance(value, np.generic) and not isinstance(value, np.bool_):
+        value = value.item() if not isinstance(value, np.floating) else float(value)
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise InputError(f"must be a number, got {shown(value)}{_text_number_hint(value)}")
+    if isinstance(value, int) and not integer:
+        try:
+            value = float(value)
+        except OverflowError:
+            raise InputError(f"must be a finite number, got {shown(value)}") from None
+    if isinstance(value, float) and not math.isfinite(value):
+        raise InputError(f"must be a finite number, got {value}")
+    if integer and int(value) != value:
+        raise InputError(f"must be a whole number, got {value}")
+    return int(value) if integer else value
+
+
+def _text_number_hint(value) -> str:
+    """A hint for text that reads as a finite number (a quoted number, say), else ''."""
+    if not isinstance(value, str) or len(value) > 40:
+        return ""
+    try:
+        finite = math.isfinite(float(value))
+    except ValueError:
+        return ""
+    if not value.isascii():  # Python reads other scripts' digits (Arabic-Indic, ...); YAML does not
+        return " (digits other than 0-9: write the number with 0-9)" if finite else ""
+    return " (text: write the number without quotes)" if finite else ""
+
+
+def within(value, rule: Range, given=None):
+    """``value`` if it is in ``rule``; else an ``InputError`` saying so (showing ``given``, the value as
+    the user wrote it, when given)."""
+    if value not in rule:
+        raise InputError(f"must be {rule}, got {shown(value if given is None else given)}")
+    return value
+
+
+def ranged(value, rule: Range | type):
+    """``value`` checked against ``rule``: a number in its ``Range``, or true/false where ``rule`` is
+    ``bool``. Raises ``InputError`` with the problem alone, as ``number`` does."""
+    if not isinstance(rule, Range):
+        if not isinstance(value, (bool, np.bool_)):
+            raise InputError(f"must be true or false, got {shown(value)}")
+        return bool(value)
+    return within(number(value, integer=rule.integer), rule, value)
 
 
 def float_array(name: str, value) -> np.ndarray:

@@ -79,6 +79,22 @@ def test_existing_file_or_path_under_a_file_is_refused_before_planning(tmp_path,
     assert afile.read_text() == "mine"
 
 
+@pytest.mark.skipif(sys.platform != "linux", reason="names of any bytes: Linux file systems")
+def test_a_path_that_is_not_utf8_is_refused_before_planning_and_reading(tmp_path, no_planning, task, capsys):
+    from planner.errors import RecordingError
+    from planner.recording import read_recording
+    odd = os.fsdecode(os.fsencode(str(tmp_path)) + b"/o\xff")  # what Python makes of bytes that are not UTF-8
+    for arguments in (["plan", str(task), "--out", odd], ["replay", str(task), "--export-csv", odd + ".csv"]):
+        assert main(arguments) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "the path holds bytes that are not UTF-8" in err and "o\\udcff" in err
+    with open(os.fsencode(odd), "wb") as file:  # a recording at such a path exists, and is named
+        file.write(b"x")
+    with pytest.raises(RecordingError, match=r"o\\udcff.: the path holds bytes that are not UTF-8 .* rename or link"):
+        read_recording(odd)
+    assert sorted(os.listdir(tmp_path)) == sorted(["task.yaml", os.fsdecode(b"o\xff")])
+
+
 def test_folder_of_other_files_is_refused_unless_forced(tmp_path):
     out = tmp_path / "results"
     out.mkdir()

@@ -362,6 +362,25 @@ def test_check_fails_on_samples_off_the_trajectory(offset, tmp_path, capsys):
     assert "limits hold" not in out  # it said so, exiting 1
 
 
+def test_exports_of_a_recording_that_fails_its_check_are_not_written(tmp_path, capsys):
+    tight = _definition(**{"limits.velocity": [0.1, 5.0]})
+    path = write_like_planner(tmp_path / "r.rrd", definition=tight)
+    csv = tmp_path / "r.csv"
+    assert main(["replay", str(path), "--check", "--export-csv", str(csv)]) == 1
+    assert "VIOLATIONS" in (out := capsys.readouterr().out) and "; --export-csv not written: the check failed" in out
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.rrd"]
+    assert main(["replay", str(write_like_planner(tmp_path / "ok.rrd")), "--check", "--export-csv", str(csv)]) == 0
+    assert csv.is_file() and "not written" not in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("link", ["loop", "dangling"])
+def test_a_symbolic_link_to_nothing_is_named_as_one(link, tmp_path):
+    path = tmp_path / "r.rrd"
+    path.symlink_to(path if link == "loop" else tmp_path / "gone.rrd")
+    with pytest.raises(RecordingError, match=r"r\.rrd: a symbolic link to nothing \(its target is missing, or"):
+        read_recording(path)
+
+
 def test_check_passes_only_when_everything_holds(tmp_path, capsys):
     assert main(["replay", str(write_like_planner(tmp_path / "r.rrd")), "--check"]) == 0
     assert "2 joints, 201 samples, T = 4.0000 s" in capsys.readouterr().out

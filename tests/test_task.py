@@ -476,6 +476,30 @@ def test_make_task_takes_any_mapping_and_refuses_a_list_containing_itself():
         make_task(joints_deg=[looped, looped])
 
 
+def test_make_task_names_a_keyword_it_does_not_take_and_positional_arguments():
+    from planner import make_task
+    limits = {"velocity_deg_s": [100], "acceleration_deg_s2": [200], "jerk_deg_s3": [400]}
+    with pytest.raises(TaskError, match=r"^joint_deg: is no keyword of make_task; it takes name, robot, joints_deg"):
+        make_task(joint_deg=[[0], [1]], limits=limits)
+    with pytest.raises(TaskError, match=r"^make_task takes keywords only .*; got 1 positional argument$"):
+        make_task([[0], [1]], limits=limits)
+
+
+def test_numpy_scalars_of_any_precision_read_as_numbers():
+    from planner import make_task
+    limits = {"velocity_deg_s": [100], "acceleration_deg_s2": [200], "jerk_deg_s3": [400]}
+    plain = make_task(joints_deg=[[0.0], [12.5]], limits=limits)
+    for kind in (np.longdouble, np.float32, np.float16, np.int16):
+        task = make_task(joints_deg=np.array([[0], [12.5 if kind != np.int16 else 12]], dtype=kind),
+                         limits={key: np.array(values, dtype=kind) for key, values in limits.items()})
+        assert task.limits.keys() == plain.limits.keys()
+        np.testing.assert_allclose(task.joint_waypoints, plain.joint_waypoints, atol=np.deg2rad(0.5))
+        for key, values in plain.limits.items():
+            np.testing.assert_allclose(task.limits[key], values)
+    with pytest.raises(TaskError, match=r"^waypoints\.joints_deg\[1\]\[0\]: must be a finite number, got inf"):
+        make_task(joints_deg=np.array([[0], [np.inf]], dtype=np.longdouble), limits=limits)
+
+
 @pytest.mark.parametrize("optimizer", [{"weights": [1, 1000]}, {"objective": "time", "weights": [1, 0]}])
 def test_weights_without_the_time_jerk_objective_are_refused(optimizer):
     """They were accepted and silently unused."""

@@ -3,7 +3,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from planner import InfeasibleError, InputError, JointLimits, get_family, kinematic_figures, paper
+from planner import InfeasibleError, InputError, JointLimits, SettingError, get_family, kinematic_figures, paper
 from planner.limits import FEASIBILITY_TOLERANCE, in_degrees_apart
 from planner.timing import OPTIMIZERS, TimingProblem, cuckoo_search, optimize
 
@@ -208,15 +208,60 @@ def test_no_limits_and_no_bounds_is_an_error():
 def test_bad_optimizer_requests(paper_problem):
     with pytest.raises(InputError, match="unknown optimizer 'ga'"):
         optimize(paper_problem, "ga")
-    with pytest.raises(InputError, match="bad settings for optimizer 'pso'"):
+    with pytest.raises(SettingError, match="^optimizer setting nests: pso takes no such setting; it takes: seed, "
+                                           "particles, iterations"):
         optimize(paper_problem, "pso", nests=3)
     with pytest.raises(InputError, match="needs duration bounds"):
         optimize(paper_problem, "cuckoo-paper")
-    with pytest.raises(InputError, match="nests >= 2"):
+    with pytest.raises(SettingError, match=r"^optimizer setting nests: must be an integer >= 2 and <= 10000, got 1$"):
         optimize(paper_problem, "cuckoo", nests=1)
     for algorithm in ("default", "cuckoo-paper"):  # they pass their settings on to Cuckoo Search
-        with pytest.raises(InputError, match=f"bad settings for optimizer '{algorithm}'"):
+        with pytest.raises(SettingError, match=f"{algorithm} takes no such setting") as caught:
             optimize(paper_problem, algorithm, particles=3)
+        assert caught.value.setting == "particles"
+
+
+@pytest.mark.parametrize("value, problem", [
+    ("4", "must be a number, got '4' (text: write the number without quotes)"),
+    (True, "must be a number, got True"), (4.5, "must be a whole number, got 4.5"), ([4], "must be a number"),
+    (float("nan"), "must be a finite number, got nan"), (10**400, "must be an integer >= 2 and <= 10000"),
+])
+def test_an_optimizer_setting_of_the_wrong_kind_is_named_not_raised_raw(paper_problem, value, problem):
+    with pytest.raises(SettingError) as caught:
+        optimize(paper_problem, "cuckoo", nests=value)
+    assert (caught.value.setting, str(caught.value)) == ("nests", f"optimizer setting nests: {caught.value.problem}")
+    assert caught.value.problem.startswith(problem)
+
+
+def test_settings_are_checked_against_the_same_ranges_as_a_task_file(paper_problem):
+    from planner.task import RANGES
+    from planner.timing import SETTING_RANGES
+
+    assert all(RANGES[f"optimizer.{name}"] is rule for name, rule in SETTING_RANGES.items())
+    for name, rule in SETTING_RANGES.items():
+        algorithm = next(a for a in ("cuckoo", "pso", "de", "slsqp") if name in _parameters(a))
+        outside = "yes" if rule is bool else (rule.low if rule.low_open else rule.low - 1)
+        with pytest.raises(SettingError, match=f"^optimizer setting {name}: must be "):
+            optimize(paper_problem, algorithm, **{name: outside})
+    with pytest.raises(SettingError, match="^optimizer setting refine_starts: must be at most nests"):
+        optimize(paper_problem, "cuckoo", nests=3, refine_starts=4)
+    with pytest.raises(SettingError, match="^optimizer setting progress: must be a callable"):
+        optimize(paper_problem, "cuckoo", progress=3)
+
+
+def test_numpy_scalars_are_settings_like_python_numbers(paper_problem):
+    plain = optimize(paper_problem, "cuckoo", nests=4, iterations=2, pa=0.5, seed=3)
+    numpy = optimize(paper_problem, "cuckoo", nests=np.int64(4), iterations=np.int32(2), pa=np.float32(0.5),
+                     seed=np.uint8(3))
+    assert numpy.durations.tolist() == plain.durations.tolist()
+    assert numpy.settings == plain.settings
+
+
+def _parameters(algorithm: str) -> set[str]:
+    import inspect
+
+    from planner.timing import settings_signature
+    return set(inspect.signature(settings_signature(algorithm)).parameters)
 
 
 def test_a_type_error_inside_an_optimizer_is_not_blamed_on_the_settings(paper_problem, monkeypatch):

@@ -5,8 +5,8 @@ from __future__ import annotations
 import inspect
 from typing import Callable
 
-from ..errors import InputError
-from ..validate import positive_finite
+from ..errors import InputError, SettingError, shown
+from ..validate import MAX_SEED, Range, positive_finite, ranged
 from .baselines import multistart_slsqp, particle_swarm, scipy_differential_evolution
 from .cuckoo import cuckoo_search
 from .nlp import nlp_refine, nlp_settings
@@ -48,6 +48,28 @@ def _paper_cuckoo(problem: TimingProblem, **settings) -> OptimizationResult:
 #: Keyword parameters of the optimizers that are not settings of a task: the run's seed and progress
 #: display, and the Cuckoo Search variant that the algorithm's name chooses.
 NOT_SETTINGS = ("seed", "progress", "variant")
+_COUNT = 10_000
+#: Allowed values of every optimizer setting (``bool``: true or false), whichever optimizer takes it;
+#: ``seed`` may also be None (an unseeded run), ``alpha`` and ``polish`` None (the variant's default).
+#: Upper caps keep memory and run time bounded.
+SETTING_RANGES: dict[str, Range | type] = {
+    "nests": Range(2, _COUNT, integer=True),                 # Cuckoo Search
+    "iterations": Range(1, 100_000, integer=True),           # Cuckoo Search, PSO, SLSQP
+    "pa": Range(0, 1),
+    "alpha": Range(0, 10, low_open=True),
+    "beta": Range(1, 2, low_open=True),
+    "polish": bool,
+    "refine_starts": Range(1, _COUNT, integer=True),         # also at most nests
+    "particles": Range(2, _COUNT, integer=True),             # PSO
+    "inertia": Range(0, 1),
+    "cognitive": Range(0, 4),
+    "social": Range(0, 4),
+    "population": Range(1, 1_000, integer=True),             # differential evolution
+    "evaluations": Range(1, 10_000_000, integer=True),
+    "starts": Range(1, _COUNT, integer=True),                # SLSQP
+}
+_SEED = Range(0, MAX_SEED, integer=True)
+_MAY_BE_NONE = ("seed", "alpha", "polish")
 #: algorithm name -> optimizer(problem, **settings)
 OPTIMIZERS = {
     "default": _default_planner,
@@ -66,6 +88,41 @@ def settings_signature(algorithm: str) -> Callable:
     return cuckoo_search if algorithm in ("default", "cuckoo-paper") else OPTIMIZERS[algorithm]
 
 
+def checked_settings(algorithm: str, settings: dict) -> dict:
+    """``settings`` of ``algorithm`` (a name in ``OPTIMIZERS``), each checked against ``SETTING_RANGES``
+    and numpy scalars made Python numbers.
+
+    ``progress`` (a callable, not a setting) passes through.
+
+    Raises:
+        SettingError: naming the first setting ``algorithm`` does not take, or that is outside its range,
+            and for Cuckoo Search ``refine_starts`` above ``nests``.
+    """
+    taken = inspect.signature(settings_signature(algorithm)).parameters
+    checked = {}
+    for name, value in settings.items():
+        if name == "progress":
+            if value is not None and not callable(value):
+                raise SettingError(name, f"must be a callable progress(done, total) or None, got {shown(value)}")
+            checked[name] = value
+            continue
+        if name not in taken or taken[name].kind != inspect.Parameter.KEYWORD_ONLY or name == "variant":
+            names = [key for key, p in taken.items() if p.kind == p.KEYWORD_ONLY and key not in NOT_SETTINGS]
+            raise SettingError(name, f"{algorithm} takes no such setting; it takes: seed, {', '.join(names)}")
+        if value is None and name in _MAY_BE_NONE:
+            checked[name] = None
+            continue
+        try:
+            checked[name] = ranged(value, _SEED if name == "seed" else SETTING_RANGES[name])
+        except InputError as exc:
+            raise SettingError(name, str(exc)) from None
+    if checked.get("refine_starts") is not None and checked.get("nests") is not None \
+            and checked["refine_starts"] > checked["nests"]:
+        raise SettingError("refine_starts", f"must be at most nests ({checked['nests']}), "
+                                            f"got {checked['refine_starts']}")
+    return checked
+
+
 def optimize(problem: TimingProblem, algorithm: str = "default", *, time_limit_s: float | None = None,
              **settings) -> OptimizationResult:
     """Run the named optimizer (see ``OPTIMIZERS``) with its settings.
@@ -82,10 +139,7 @@ def optimize(problem: TimingProblem, algorithm: str = "default", *, time_limit_s
         optimizer = OPTIMIZERS[algorithm]
     except (KeyError, TypeError):
         raise InputError(f"unknown optimizer {algorithm!r}; known: {', '.join(OPTIMIZERS)}") from None
-    try:  # only a setting the optimizer does not take is the caller's mistake; a TypeError inside is a bug
-        inspect.signature(settings_signature(algorithm)).bind(problem, **settings)
-    except TypeError as exc:
-        raise InputError(f"bad settings for optimizer {algorithm!r}: {exc}") from None
+    settings = checked_settings(algorithm, settings)
     with time_limit(time_limit_s):
         try:
             return optimizer(problem, **settings)
@@ -95,6 +149,6 @@ def optimize(problem: TimingProblem, algorithm: str = "default", *, time_limit_s
                                        requested)
 
 
-__all__ = ["NOT_SETTINGS", "OPTIMIZERS", "Evaluation", "OptimizationResult", "StartReport", "TimingProblem",
-           "cuckoo_search", "multistart_slsqp", "optimize", "particle_swarm", "scipy_differential_evolution",
-           "settings_signature", "shape_starts"]
+__all__ = ["NOT_SETTINGS", "OPTIMIZERS", "SETTING_RANGES", "Evaluation", "OptimizationResult", "StartReport",
+           "TimingProblem", "checked_settings", "cuckoo_search", "multistart_slsqp", "optimize", "particle_swarm",
+           "scipy_differential_evolution", "settings_signature", "shape_starts"]
