@@ -101,13 +101,15 @@ def torque_limits(robot: Robot, given: np.ndarray | str) -> np.ndarray:
     """(J,) torque limits [N m]: ``given``, or (``"urdf"``) the robot's URDF efforts.
 
     Raises:
-        RobotFileError: a robot without inertial parameters (every torque would be 0).
+        RobotFileError: a robot without inertial parameters (every torque would be 0), or with an inertia no
+            body can have (``_check_inertias``).
         MissingLimitError: ``urdf`` for a robot whose URDF gives a joint no effort (0).
         TaskError: a list of the wrong length.
     """
     if not any(inertia.mass > 0 or inertia.inertia.any() for inertia in robot.model.inertias):
         raise RobotFileError(f"robot {robot.name!r} has no inertial parameters (no <inertial> in {robot.urdf_path}): "
                              f"torque limits need its masses and inertias", path=robot.urdf_path)
+    _check_inertias(robot)
     if isinstance(given, str):
         efforts = np.asarray(robot.model.effortLimit, dtype=float)
         missing = np.flatnonzero(~(efforts > 0))
@@ -121,6 +123,29 @@ def torque_limits(robot: Robot, given: np.ndarray | str) -> np.ndarray:
     if len(limits) != robot.dof:
         raise TaskError("limits.torque_nm", f"must have {robot.dof} values for robot {robot.name!r}, got {len(limits)}")
     return limits
+
+
+#: A body's rotational inertia may fall below positive semidefinite by this fraction of the robot's largest
+#: principal moment (rounding in a URDF's printed inertias), and no more.
+INERTIA_TOLERANCE = 1e-6
+
+
+def _check_inertias(robot: Robot) -> None:
+    """Every body's rotational inertia (about its centre of mass) is one a body can have: positive
+    semidefinite, within ``INERTIA_TOLERANCE``. Pinocchio takes a negative or indefinite one as it is,
+    and the torques computed from it would be another robot's.
+
+    Raises:
+        RobotFileError: naming the body's joint, its smallest principal moment and the largest.
+    """
+    moments = [np.linalg.eigvalsh(inertia.inertia) for inertia in robot.model.inertias]
+    largest = max(float(m.max()) for m in moments)
+    for index, values in enumerate(moments):
+        if values.min() < -INERTIA_TOLERANCE * max(largest, 1e-300):
+            raise RobotFileError(f"the body moved by joint {robot.model.names[index]!r} has an inertia no body can "
+                                 f"have (a principal moment of {values.min():.4g} kg m^2; the robot's largest is "
+                                 f"{largest:.4g}): torque limits need true inertias; fix its <inertia> in "
+                                 f"{robot.urdf_path}", path=robot.urdf_path)
 
 
 def torque_slow_down(torque: np.ndarray, gravity: np.ndarray, limit: np.ndarray) -> np.ndarray:

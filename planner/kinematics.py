@@ -383,7 +383,15 @@ class KinematicFigures:
         freeze_arrays(self)
 
     def ratios(self, limits: JointLimits) -> np.ndarray:
-        """(3, J) constraint ratios against ``limits``."""
+        """(3, J) constraint ratios against ``limits``.
+
+        Raises:
+            InputError: ``limits`` is no ``JointLimits``, or is for another number of joints.
+        """
+        if not isinstance(limits, JointLimits) or limits.joint_count != self.max_abs.shape[-1]:
+            raise InputError(f"limits must be a JointLimits for {self.max_abs.shape[-1]} joints, got "
+                             f"{limits.joint_count if isinstance(limits, JointLimits) else type(limits).__name__}"
+                             f"{' joints' if isinstance(limits, JointLimits) else ''}")
         return limits.ratios(self.max_abs)
 
     def violations(self, limits: JointLimits) -> list[Violation]:

@@ -9,7 +9,7 @@ import numpy as np
 
 from .errors import InputError
 from .read_only import freeze_arrays
-from .validate import float_array
+from .validate import finite_array, float_array
 
 
 @dataclass(frozen=True)
@@ -61,6 +61,9 @@ LIMIT_DEG_RANGE = (1e-12, 1e15)
 #: outside their range, count as holding (rounding in the exact checks and in unit conversions,
 #: such as a via-point written as -160 deg against a URDF bound of -2.792526803 rad).
 FEASIBILITY_TOLERANCE = 1e-9
+#: Most joints a set of limits is made for (``JointLimits.create``): a humanoid has tens; the cap keeps a
+#: mistaken count from allocating without end.
+MAX_JOINTS = 10_000
 
 
 def in_degrees(value: float, order: int) -> str:
@@ -119,8 +122,8 @@ class JointLimits:
     def create(cls, joints: int, *, lower=None, upper=None, velocity=None, acceleration=None,
                jerk=None, names=None) -> "JointLimits":
         """Limits for ``joints`` joints; ``None`` means absent for every joint."""
-        if isinstance(joints, bool) or not isinstance(joints, (int, np.integer)) or joints < 1:
-            raise InputError(f"the joint count must be a whole number >= 1, got {joints!r}")
+        if isinstance(joints, bool) or not isinstance(joints, (int, np.integer)) or not 1 <= joints <= MAX_JOINTS:
+            raise InputError(f"the joint count must be a whole number from 1 to {MAX_JOINTS}, got {joints!r}")
         return cls(_limit_vector("lower position", lower, joints, -np.inf),
                    _limit_vector("upper position", upper, joints, np.inf),
                    _limit_vector("velocity", velocity, joints, np.inf),
@@ -173,7 +176,10 @@ class JointLimits:
         Returns:
             (index of the position in ``positions``, "lower" or "upper", the bound [rad] it passes).
         """
-        positions = np.asarray(positions, dtype=float)
+        positions = finite_array("positions", positions, max(np.ndim(positions), 1))
+        if positions.shape[-1] != self.joint_count:
+            raise InputError(f"positions hold {positions.shape[-1]} values per configuration, the limits are for "
+                             f"{self.joint_count} joints")
         for side, outside in (("lower", positions < self.lower - FEASIBILITY_TOLERANCE),
                               ("upper", positions > self.upper + FEASIBILITY_TOLERANCE)):
             hits = np.argwhere(outside)

@@ -370,10 +370,14 @@ def check_output_file(path, *, force: bool = False) -> Path:
     """``path`` as an absolute file path that can be written, checked before any work.
 
     Raises:
-        OutputError: an empty path, a path that is a folder or lies under a file, an unwritable
-            folder, or (without ``force``) an existing file: a user's file is never replaced unasked.
+        OutputError: an empty path, a path that is a folder (or ends with a separator) or lies under a
+            file, an unwritable folder, or (without ``force``) an existing file: a user's file is never
+            replaced unasked.
     """
     target = _absolute(path, "output file")
+    if os.fspath(path).endswith(tuple(filter(None, (os.sep, os.altsep)))):
+        raise OutputError(f"output file {shown(os.fspath(path))} ends with a path separator, which names a folder; "
+                          f"give a file name")
     try:
         return _check_file(target, force)
     except OSError as exc:

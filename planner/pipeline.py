@@ -18,7 +18,7 @@ import numpy as np
 from .cartesian_path import StraightPath, follow_straight_lines, tool_deviation
 from .concurrency import map_forked
 from .dynamics import RobotLimitOutcome, joint_torques, meet_robot_limits, torque_limits
-from .errors import IKError, InfeasibleError, MissingLimitError, PlannerError, TaskError
+from .errors import IKError, InfeasibleError, InputError, MissingLimitError, PlannerError, TaskError
 from .export import coefficients_document, write_json, write_trajectory_csv
 from .ik import IKSolution, pose_from_position_quaternion, solve_waypoints
 from .kinematics import KinematicFigures, Violation, kinematic_figures
@@ -89,8 +89,13 @@ class PlanResult:
         return None if self.robot_limits is None else self.robot_limits.torque_limit
 
     def torques_at(self, times: np.ndarray) -> np.ndarray:
-        """(K, J) the joint torques [N m] of the trajectory at ``times`` [s] (Pinocchio's RNEA)."""
-        assert self.robot is not None
+        """(K, J) the joint torques [N m] of the trajectory at ``times`` [s] (Pinocchio's RNEA).
+
+        Raises:
+            InputError: a plan without a robot (a joint-space task has no dynamics).
+        """
+        if self.robot is None:
+            raise InputError(f"task {self.task.name!r} has no robot: torques need one (give robot in the task)")
         trajectory = self.trajectory
         return joint_torques(self.robot, *(trajectory.evaluate(times, order) for order in range(3)))
 
@@ -338,6 +343,8 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
     timings: dict[str, float] = {}
     start = time.perf_counter()
     task = as_task(task)
+    if progress is not None and not isinstance(progress, TerminalProgress):
+        raise InputError(f"progress must be a planner.progress.TerminalProgress or None, got {type(progress).__name__}")
     progress = progress or TerminalProgress("", quiet=True)
     robot, ik, alternative = None, None, None
     if task.robot is not None:
@@ -413,20 +420,37 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
 
     branch_times: dict[str, float | None] = {}
     timed, kept = None, task.ik.branch if ik is not None else None
+    # The other rule's sequence, where there is one that differs: (its IK, via-points, rule's name).
+    second: tuple[list[IKSolution] | None, np.ndarray, str] | None = None
     if alternative is not None:
         other = np.array([solution.q for solution in alternative])
         if not np.allclose(other, via, rtol=0, atol=1e-9):
             mine, theirs = timed_or_none(via, "optimal"), timed_or_none(other, "continuous")
             branch_times = {name: None if t is None else t[0].total_time
                             for name, t in (("optimal", mine), ("continuous", theirs))}
-            timed = mine
+            timed, second = mine, (alternative, other, "continuous")
             if theirs is not None and (mine is None or theirs[0].total_time < mine[0].total_time):
+                second = (ik, via, "optimal")
                 ik, via, timed, kept = alternative, other, theirs, "continuous"
     path = None
     if poses is not None and task.path.mode == "linear":
         assert robot is not None
-        path, (problem, result) = follow_straight_lines(robot, poses, via, time_via_points, task.path.tolerance_m,
-                                                        task.path.tolerance_rad, progress.note)
+
+        def follow(points: np.ndarray):
+            return follow_straight_lines(robot, poses, points, time_via_points, task.path.tolerance_m,
+                                         task.path.tolerance_rad, progress.note)
+        try:
+            path, (problem, result) = follow(via)
+        except IKError as failure:  # the lines may run into a branch change the other rule's sequence avoids
+            if second is None:
+                raise
+            progress.note(f"the {kept} rule's IK sequence cannot follow the straight lines ({failure}); trying the "
+                          f"{second[2]} rule's")
+            try:
+                path, (problem, result) = follow(second[1])
+            except IKError:
+                raise failure from None
+            ik, kept = second[0], second[2]
         via = path.via_points
         trajectory = problem.trajectory(result.durations, result.knot_states)
     else:

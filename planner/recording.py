@@ -548,12 +548,15 @@ def read_recording(path) -> RecordedPlan:
     if not utf8_path(path.absolute()):
         raise RecordingError(f"{shown(str(path.absolute()))}: the path holds bytes that are not UTF-8 (shown as "
                              f"\\udcXX); Rerun reads recordings at UTF-8 paths only: rename or link it")
-    if not path.is_file():
-        what = ("a folder: give the .rrd file in it" if path.is_dir() else
-                "not a regular file (a device or pipe)" if path.exists() else
-                "a symbolic link to nothing (its target is missing, or the links form a loop)"
-                if path.is_symlink() else "no such recording")
-        raise RecordingError(f"{path}: {what}")
+    try:
+        if not path.is_file():
+            what = ("a folder: give the .rrd file in it" if path.is_dir() else
+                    "not a regular file (a device or pipe)" if path.exists() else
+                    "a symbolic link to nothing (its target is missing, or the links form a loop)"
+                    if path.is_symlink() else "no such recording")
+            raise RecordingError(f"{path}: {what}")
+    except OSError as exc:  # a name too long, a folder on the way that cannot be read
+        raise RecordingError(f"{shown(str(path))}: {exc.strerror or exc}") from None
     application, chunks = _trajectory_chunks(path)
     if not chunks.keys() & {_DEFINITION, _SAMPLES, _END} and application != APPLICATION_ID:
         raise RecordingError(f"{path}: not a planner recording (no trajectory definition of format {FORMAT})")

@@ -32,7 +32,7 @@ from .errors import (
 )
 from .limits import LIMIT_DEG_RANGE, LIMITED, JointLimits
 from .native_output import stderr_captured
-from .validate import positive_finite
+from .validate import float_array, positive_finite
 from .yaml_input import read_yaml
 
 #: Largest URDF file loaded [bytes]: the parser reads about 1 MB/s of XML.
@@ -91,15 +91,26 @@ class Robot:
 
     def forward_kinematics(self, q) -> pin.SE3:
         """Pose of the tool frame in the world for joint positions ``q`` [rad]."""
-        q = np.asarray(q, dtype=float)
-        pin.framesForwardKinematics(self.model, self.data, q)
+        pin.framesForwardKinematics(self.model, self.data, self._configuration(q))
         return self.data.oMf[self.tool_frame_id].copy()
 
     def frame_jacobian(self, q) -> np.ndarray:
         """(6, nv) Jacobian of the tool frame in its LOCAL frame (linear first)."""
-        jacobian = pin.computeFrameJacobian(self.model, self.data, np.asarray(q, dtype=float), self.tool_frame_id,
+        jacobian = pin.computeFrameJacobian(self.model, self.data, self._configuration(q), self.tool_frame_id,
                                             pin.ReferenceFrame.LOCAL)
         return np.reshape(jacobian, (6, self.model.nv))  # one joint: the binding returns a (6,) vector
+
+    def _configuration(self, q) -> np.ndarray:
+        """``q`` as a float array of the model's nq values (Pinocchio's own error is a multi-line C++ one).
+
+        Raises:
+            InputError: not numbers, or another count of values.
+        """
+        q = float_array("joint positions", q)
+        if q.shape != (self.model.nq,):
+            raise InputError(f"joint positions must be {self.model.nq} values for robot {self.name!r}, got shape "
+                             f"{q.shape}")
+        return q
 
     # ------------------------------------------------------------------ construction
 

@@ -104,11 +104,13 @@ def render_screenshot(recording, out: Path, time_s: float) -> None:
                               "(pip install rerun-sdk) in this environment, or put its `rerun` on PATH")
     port = _free_port()
     command = [executable, "--headless", "--port", str(port), "--hide-welcome-screen", "--window-size", WINDOW_SIZE]
-    with tempfile.TemporaryFile() as log:
+    # The viewer's own scratch files (a rerun-data-* folder it leaves when it is ended) go into a folder
+    # removed afterwards.
+    with tempfile.TemporaryFile() as log, tempfile.TemporaryDirectory(prefix="planner-viewer-") as scratch:
         started = time.monotonic()
         try:
             viewer = subprocess.Popen(command, stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT,
-                                      env={**os.environ, "RERUN_APP_ONLY": "true"},
+                                      env={**os.environ, "RERUN_APP_ONLY": "true", "TMPDIR": scratch},
                                       start_new_session=os.name == "posix")
         except OSError as exc:
             raise ViewerError(f"cannot start Rerun's headless viewer {executable}: {exc}") from None

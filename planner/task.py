@@ -40,7 +40,7 @@ import inspect
 import math
 import os
 import re
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -661,9 +661,9 @@ def pose_entry(pose=None, *, xyz_m=None, rpy_deg=None, quat_xyzw=None, hint_deg=
             (R^T R off the identity by more than ``UNIT_TOLERANCE``, or det R < 0).
     """
     if pose is not None:
-        if not all(hasattr(pose, attribute) for attribute in ("translation", "rotation")):
-            raise TaskError(where, f"a pose must be a pinocchio.SE3, got {type(pose).__name__}")
         import pinocchio as pin
+        if not isinstance(pose, pin.SE3):
+            raise TaskError(where, f"a pose must be a pinocchio.SE3, got {type(pose).__name__}")
         rotation = np.asarray(pose.rotation, dtype=float)
         if rotation.shape == (3, 3) and np.isfinite(rotation).all():
             off = float(np.abs(rotation.T @ rotation - np.eye(3)).max())
@@ -700,6 +700,10 @@ def make_task(*positional, name: str = "task", robot: dict | None = None, joints
         raise TaskError(shown(next(iter(unknown)))[1:-1], f"is no keyword of make_task; it takes {keywords}")
     if (joints_deg is None) == (poses is None):
         raise TaskError("waypoints", "give exactly one of joints_deg or poses")
+    if poses is not None and (isinstance(poses, (str, bytes, Mapping)) or not isinstance(poses, Iterable)
+                              or type(poses).__module__.startswith("pinocchio")):
+        raise TaskError("waypoints.cartesian", f"poses must be a list of tool poses (pinocchio.SE3 objects or "
+                                               f"pose_entry mappings), got {type(poses).__name__}")
     waypoints = {"joints_deg": joints_deg} if poses is None else {"cartesian": [
         entry if isinstance(entry, Mapping) else pose_entry(entry, where=f"waypoints.cartesian[{i}]")
         for i, entry in enumerate(poses)]}

@@ -57,6 +57,23 @@ def linear_ur5_task(tmp_path: Path) -> Path:
     return path
 
 
+def test_linear_mode_falls_back_to_the_other_rules_sequence_when_the_kept_one_cannot_follow_the_lines(capsys):
+    """Two poses whose faster IK sequence (in joint space) puts the UR5's base on a 2 pi turn of the one the
+    straight line reaches: the line cannot be followed from it, and the other rule's sequence can."""
+    data = {"version": 1, "robot": {"name": "ur5", "tool_frame": "tool0"},
+            "waypoints": {"cartesian": [{"xyz_m": [0.40, -0.25, 0.35], "rpy_deg": [180, 0, 90]},
+                                        {"xyz_m": [0.25, 0.35, 0.40], "rpy_deg": [180, 0, 90]}]},
+            "limits": {"acceleration_deg_s2": [150] * 3 + [300] * 3, "jerk_deg_s3": [600] * 3 + [1200] * 3},
+            "path": {"mode": "linear"}}
+    from planner.progress import TerminalProgress
+    result = plan(parse_task(data), progress=TerminalProgress("", quiet=False))
+    assert "rule's IK sequence cannot follow the straight lines" in capsys.readouterr().out
+    assert result.branch_kept == "continuous" and result.optimization.feasible
+    assert result.path.max_distance_m.max() <= 1e-3  # the default tolerance, 1 mm
+    turns = np.abs(np.diff(result.via_points, axis=0)).max()
+    assert turns < np.pi  # no joint jumps between neighbouring poses on the line
+
+
 def test_linear_mode_keeps_the_tool_on_the_straight_segments(tmp_path):
     task = load_task(linear_ur5_task(tmp_path))
     result = plan(task)
@@ -193,8 +210,9 @@ def test_running_out_of_rounds_names_the_worst_segment_and_says_how_far(tmp_path
         plan(task, progress=progress)
     segment = int(caught.value.args[0].split()[2])
     assert caught.value.waypoint == segment and 0 <= segment < len(task.cartesian_waypoints) - 1
+    tried = 1 + sum("cannot follow the straight lines" in n for n in notes)  # each IK sequence gets its rounds
     assert [n.split(":")[0] for n in notes if n.startswith("straight-line")] == ["straight-line round 1",
-                                                                                 "straight-line round 2"]
+                                                                                 "straight-line round 2"] * tried
 
 
 # --- follow_straight_lines on its own: the PUMA, timed under the paper's limits ---

@@ -219,6 +219,17 @@ def test_torque_limits_need_inertial_parameters(tmp_path):
         torque_limits(robot, "urdf")
 
 
+@pytest.mark.parametrize("inertia", [-5.0, -0.01])
+def test_torque_limits_refuse_an_inertia_no_body_can_have(tmp_path, inertia):
+    """Pinocchio takes a negative principal moment as it is (the robot loads, for IK); its torques would be
+    another robot's, so torque limits name the body."""
+    robot = pendulum(tmp_path, inertia=inertia)
+    with pytest.raises(RobotError, match=rf"the body moved by joint 'swing' has an inertia no body can have \(a "
+                                         rf"principal moment of {inertia:g} kg m\^2; the robot's largest is 0.001\)"):
+        torque_limits(robot, "urdf")
+    assert torque_limits(pendulum(tmp_path, inertia=-1e-12), "urdf").tolist() == [20.0]  # rounding is no body
+
+
 def test_the_outputs_carry_the_torques(puma, tmp_path):
     """trajectory.csv gets one torque column per joint (Pinocchio's RNEA at its own times), the figure a
     fifth plot and the recording a torque series per joint with its limits."""

@@ -160,8 +160,8 @@ def test_bad_limits(kwargs, message):
 
 @pytest.mark.parametrize("call, message", [
     (lambda: JointLimits.create(2, velocity="fast"), "velocity limits must be numeric"),
-    (lambda: JointLimits.create(-1), "joint count must be a whole number >= 1, got -1"),
-    (lambda: JointLimits.create("3"), "joint count must be a whole number >= 1, got '3'"),
+    (lambda: JointLimits.create(-1), "joint count must be a whole number from 1 to 10000, got -1"),
+    (lambda: JointLimits.create("3"), "joint count must be a whole number from 1 to 10000, got '3'"),
     (lambda: JointLimits.create(2, velocity=[1, 1]).ratios(np.ones((3, 5))), r"shape \(\.\.\., 3, 2\)"),
     (lambda: time_scale_factor(np.ones(3)), r"shape \(\.\.\., 3, J\)"),
     (lambda: time_scale_factor(np.ones((3, 0))), r"shape \(\.\.\., 3, J\)"),

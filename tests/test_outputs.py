@@ -95,6 +95,13 @@ def test_a_path_that_is_not_utf8_is_refused_before_planning_and_reading(tmp_path
     assert sorted(os.listdir(tmp_path)) == sorted(["task.yaml", os.fsdecode(b"o\xff")])
 
 
+def test_an_output_file_ending_with_a_separator_is_refused_as_a_folder(tmp_path):
+    for name in ("new/", "new" + os.sep):
+        with pytest.raises(OutputError, match="ends with a path separator, which names a folder"):
+            outputs.check_output_file(str(tmp_path / "x") + "/" + name)
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_folder_of_other_files_is_refused_unless_forced(tmp_path):
     out = tmp_path / "results"
     out.mkdir()

@@ -6,9 +6,11 @@ import pinocchio as pin
 import pytest
 import yaml
 
+import planner
 from conftest import clipped_walk
 from planner import (
     InfeasibleError,
+    JointLimits,
     MissingLimitError,
     PlannerError,
     TaskError,
@@ -312,3 +314,36 @@ def test_an_infeasible_optimum_names_its_worst_violation_in_text_and_attributes(
     error = caught.value
     assert error.quantity in ("acceleration", "jerk") and 0 <= error.joint < 6 and abs(error.value) > error.limit
     assert f"joint{error.joint + 1} {error.quantity}" in str(error)
+
+
+def _two_joint_problem():
+    from planner.timing import TimingProblem
+    return TimingProblem([[0.0, 0.0], [1.0, 0.5]], "hybrid", JointLimits.create(2, velocity=[1, 1], jerk=[5, 5]))
+
+
+@pytest.mark.parametrize("call, said", [
+    (lambda: planner.make_task(poses=pin.SE3.Identity(), robot={"name": "ur5"}), "poses must be a list of tool poses"),
+    (lambda: planner.make_task(poses=5, robot={"name": "ur5"}), "poses must be a list of tool poses"),
+    (lambda: planner.pose_entry(type("Pose", (), {"translation": [0, 0, 0], "rotation": [[1, 0], [0, 1]]})()),
+     "a pose must be a pinocchio.SE3, got Pose"),
+    (lambda: __import__("planner.timing").timing.TimingProblem([[0.0], [1.0]], 5, JointLimits.create(1)),
+     "family must be a family's name"),
+    (lambda: __import__("planner.timing").timing.TimingProblem([[0.0], [1.0]], "cubic", {"velocity": [1]}),
+     "limits must be a JointLimits"),
+    (lambda: __import__("planner.timing").timing.optimize("problem"), "optimize takes a TimingProblem first, got str"),
+    (lambda: JointLimits.create(10**12), "the joint count must be a whole number from 1 to 10000"),
+    (lambda: JointLimits.create(2).range_violation("ab"), "positions must be numeric"),
+    (lambda: JointLimits.create(2).range_violation([0.0, 1.0, 2.0]), "positions hold 3 values per configuration"),
+    (lambda: planner.Robot.from_example_robot_data("ur5").forward_kinematics([0, 0]),
+     "joint positions must be 6 values for robot"),
+    (lambda: planner.kinematic_figures(_two_joint_problem().trajectory([1.0, 1.0, 1.0])).violations(None),
+     "limits must be a JointLimits for 2 joints, got NoneType"),
+    (lambda: planner.plan(planner.make_task(joints_deg=[[0], [10]], limits={"velocity_deg_s": [10]})).torques_at([0.0]),
+     "has no robot: torques need one"),
+    (lambda: planner.plan(planner.make_task(joints_deg=[[0], [10]], limits={"velocity_deg_s": [10]}), progress=5),
+     "progress must be a planner.progress.TerminalProgress or None, got int"),
+])
+def test_public_calls_with_values_of_the_wrong_kind_raise_named_planner_errors(call, said):
+    with pytest.raises(planner.PlannerError) as caught:
+        call()
+    assert said in str(caught.value) and "\n" not in str(caught.value)

@@ -373,6 +373,13 @@ def test_exports_of_a_recording_that_fails_its_check_are_not_written(tmp_path, c
     assert csv.is_file() and "not written" not in capsys.readouterr().out
 
 
+def test_a_recording_name_too_long_for_the_file_system_is_a_named_error(tmp_path, capsys):
+    path = tmp_path / ("y" * 300 + ".rrd")
+    with pytest.raises(RecordingError, match=r"characters\): File name too long$"):
+        read_recording(path)
+    assert main(["replay", str(path), "--check"]) == 2 and capsys.readouterr().err.count("\n") == 1
+
+
 @pytest.mark.parametrize("link", ["loop", "dangling"])
 def test_a_symbolic_link_to_nothing_is_named_as_one(link, tmp_path):
     path = tmp_path / "r.rrd"

@@ -29,15 +29,19 @@ def leftovers(folder: Path, *keep: Path) -> list[str]:
 
 
 def test_a_screenshot_shows_the_robot_and_drawn_curves(recording, tmp_path, capsys):
+    import tempfile
+
     from PIL import Image
 
     out = tmp_path / "shots" / "ur5.png"
+    scratch = set(Path(tempfile.gettempdir()).glob("rerun-data-*"))
     code = main(["replay", str(recording), "--screenshot", str(out), "--time", "2"])
     err = capsys.readouterr().err
     if code == 2 and ("no graphics adapter" in err or "no `rerun` program" in err):
         pytest.skip(f"no headless rendering here: {err.strip()}")
     assert code == 0, err
     assert leftovers(out.parent) == ["ur5.png"]  # written under a temporary name, then renamed
+    assert set(Path(tempfile.gettempdir()).glob("rerun-data-*")) <= scratch  # the viewer's scratch folder is gone
     image = np.asarray(Image.open(out).convert("RGB")).astype(int)
     height, width, _ = image.shape
     assert (width, height) == (1920, 1080)
@@ -100,6 +104,8 @@ def test_a_failed_screenshot_leaves_neither_its_folders_nor_the_csv_asked_with_i
     (["--screenshot", "{tmp}/shot.png", "--time", "nan"], "finite number of seconds"),
     (["--time", "1"], "--time says when to take a --screenshot"),
     (["--screenshot", "{recording}"], "is the recording itself"),
+    (["--screenshot", "{tmp}/same", "--export-csv", "{tmp}/./same"], "--screenshot and --export-csv name the same "
+                                                                    "file"),
 ])
 def test_bad_screenshot_arguments_fail_before_rendering(arguments, said, recording, tmp_path, monkeypatch, capsys):
     import planner.screenshot as screenshot

@@ -132,6 +132,8 @@ def optimize(problem: TimingProblem, algorithm: str = "default", *, time_limit_s
             found so far (``stop_reason`` says so; every optimizer but ``cuckoo-paper``, which scores
             raw penalised durations, holds a feasible candidate from its first evaluation on). None: no limit.
     """
+    if not isinstance(problem, TimingProblem):
+        raise InputError(f"optimize takes a TimingProblem first, got {type(problem).__name__}")
     if time_limit_s is not None and not positive_finite(time_limit_s):
         raise InputError(f"time_limit_s must be a finite number of seconds > 0, or None for no limit; "
                          f"got {time_limit_s!r}")

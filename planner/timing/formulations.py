@@ -51,10 +51,12 @@ class Scales:
         time: a typical segment duration [s].
         derivatives: (4, J) typical |q^(d)| for d = 1..4 [rad/s^d]: the limit where one is
             given, else the reference trajectory's peak, else 1; snap is jerk / time.
+        segment_times: (S,) the reference trajectory's durations [s].
     """
 
     time: float
     derivatives: np.ndarray
+    segment_times: np.ndarray
 
     @classmethod
     def of(cls, limits: JointLimits, durations: np.ndarray, peaks: np.ndarray) -> "Scales":
@@ -63,7 +65,7 @@ class Scales:
         fallback = np.where(peaks > 0, peaks, 1.0)
         typical = np.where(np.isfinite(magnitudes), magnitudes, fallback)
         time = float(np.mean(durations))
-        return cls(time, np.vstack((typical, typical[2] / time)))
+        return cls(time, np.vstack((typical, typical[2] / time)), np.asarray(durations, dtype=float))
 
 
 @dataclass
@@ -275,7 +277,12 @@ class QuinticFormulation(SplineFormulation):
     Segment k is the quintic that starts in the knot state (p_k, v_k, a_k,
     j_k, s_k) and ends at p_{k+1}: b_0 .. b_4 = p_k, v_k h, a_k h^2 / 2, j_k h^3 / 6,
     s_k h^4 / 24 and b_5 = p_{k+1} - (b_0 + .. + b_4). Its conditions: velocity,
-    acceleration, jerk and snap at its end equal knot k+1's state (C4).
+    acceleration, jerk and snap at its end equal knot k+1's state (C4), written in normalised
+    time, P^(d)(1) - x_{k+1} h^d = 0 for d = 1..4, and divided by constants (the typical
+    derivative times the reference duration ^ d). Divided by h^d instead, as x's own units
+    would suggest, a short segment's rows grow like h^-d as the solver shrinks it: on
+    clipped random walks IPOPT then stalled at its iteration cap (n = 256: 446.28 s from the
+    start kept, where it now converges to 346.64 s).
 
     Exact limits: |v|, |a|, |j| at the knots are variable bounds; their interior
     extremes (and the position's) are certified by the NLP.
@@ -305,7 +312,9 @@ class QuinticFormulation(SplineFormulation):
         equalities = []
         for d in range(1, 5):
             at_end = sum(coefficients[i] * (factorial(i) / factorial(i - d)) for i in range(d, 6))
-            mismatch = (at_end / powers[d] - knots[d - 1][1:, :]) / _per_joint(ca, scales.derivatives[d - 1], segments)
+            reference = ca.repmat(ca.DM(scales.segment_times ** d), 1, joints)
+            mismatch = (at_end - knots[d - 1][1:, :] * powers[d]) / (
+                reference * _per_joint(ca, scales.derivatives[d - 1], segments))
             equalities.append(ca.vec(mismatch))
         bounds = np.concatenate([self._scaled_bounds(order, count) for order, count in enumerate(counts, start=1)])
         bounds[:inner * joints] = np.where((self.resting_sides()[1:-1] != 0).T.ravel(), 0.0, bounds[:inner * joints])

@@ -43,7 +43,7 @@ import numpy as np
 from ..errors import InfeasibleError, InputError
 from ..kinematics import Violation, batch_scale_factors, jerk_energy, position_range
 from ..limits import FEASIBILITY_TOLERANCE, QUANTITIES, JointLimits, in_degrees, in_degrees_apart, time_scale_factor
-from ..splines import PiecewisePolynomial, SplineFamily, get_family, powers
+from ..splines import FAMILIES, PiecewisePolynomial, SplineFamily, get_family, powers
 from ..validate import finite_array
 
 OBJECTIVES = ("time", "time-jerk")
@@ -104,6 +104,11 @@ class TimingProblem:
                  bounds: tuple[float, float] | None = None, objective: str = "time",
                  weights: tuple[float, float] = (1.0, 1.0), min_duration: float = 0.0):
         self.family = get_family(family) if isinstance(family, str) else family
+        if not isinstance(self.family, SplineFamily):
+            raise InputError(f"family must be a family's name ({', '.join(FAMILIES)}) or a SplineFamily, "
+                             f"got {type(family).__name__}")
+        if not isinstance(limits, JointLimits):
+            raise InputError(f"limits must be a JointLimits (JointLimits.create), got {type(limits).__name__}")
         given, _ = self.family.check(via_points, np.ones(self.family.segment_count(len(via_points))))
         self.given_via_points = given
         self.via_points, self.via_index = _merge_repeats(given)
