@@ -336,3 +336,55 @@ def test_total_time_and_the_lower_position_tolerance():
     for beyond, sides in ((0.75e-9, []), (1.5e-9, ["lower"])):  # the tolerance is 1e-9 rad, as on the upper side
         limits = JointLimits.create(2, lower=[-np.inf, figures.position_min[1] + beyond])
         assert [v.side for v in figures.violations(limits)] == sides
+
+
+@given(st.lists(st.floats(-2.0, 2.0), min_size=2 * (4 + 6 + 3), max_size=2 * (4 + 6 + 3)),
+       st.lists(st.floats(0.2, 3.0), min_size=3, max_size=3))
+def test_figures_of_segments_of_rising_then_falling_degree_match_independent_ones(values, durations):
+    """A cubic segment, then a quintic, then a quadratic (two joints, padded to one width, the lower degree
+    first), with coefficients and durations hypothesis draws: max |q^(d)| against dense sampling, the
+    time-averaged |q^(d)| against scipy's quadrature (a mutation that dropped an axis in the choice of each
+    segment's degree survived every other test)."""
+    from planner.splines import PiecewisePolynomial
+    coefficients = np.zeros((3, 2, 6))
+    rest = np.array(values)
+    for segment, degree in enumerate((3, 5, 2)):
+        coefficients[segment, :, :degree + 1] = rest[:2 * (degree + 1)].reshape(2, degree + 1)
+        rest = rest[2 * (degree + 1):]
+    trajectory = PiecewisePolynomial(np.array(durations), coefficients, np.array([0, 1, 2, 3]))
+    figures = kinematic_figures(trajectory)
+    # Each segment sampled on its own closed interval, by numpy's polynomial algebra (a sample at a knot
+    # through evaluate would take the next segment's value).
+    largest = np.zeros((3, 2))
+    for k, h in enumerate(durations):
+        tau = np.linspace(0.0, h, 4001)
+        for j in range(2):
+            polynomial = np.polynomial.Polynomial(coefficients[k, j])
+            for order in (1, 2, 3):
+                largest[order - 1, j] = max(largest[order - 1, j], np.abs(polynomial.deriv(order)(tau)).max())
+    scale = np.maximum(largest, 1e-9)
+    assert np.all(figures.max_abs >= largest - 1e-9 * scale)
+    assert np.all(figures.max_abs <= largest + 1e-3 * scale + 1e-9)
+    knots = trajectory.knot_times
+    for j in range(2):
+        for order in (1, 2, 3):
+            total = sum(quad(lambda t: abs(trajectory.evaluate([t], order)[0, j]), knots[k], knots[k + 1],
+                             limit=200, epsabs=1e-12, epsrel=1e-10)[0] for k in range(3))
+            assert figures.mean_abs[order - 1, j] == pytest.approx(total / trajectory.total_time, rel=1e-6, abs=1e-9)
+
+
+@pytest.mark.parametrize("name", ["cubic", "hybrid", "quintic", "hermite7"])
+def test_extrema_with_a_via_point_at_the_zero_configuration_match_dense_sampling(name, paper_via):
+    """Every joint at exactly 0 at one via-point (zero coefficients in patterns the root finder must not
+    take for a lower degree)."""
+    via = paper_via.copy()
+    via[3] = 0.0
+    family = get_family(name)
+    trajectory = family.build(via, np.random.default_rng(11).uniform(1.0, 3.0, family.segment_count(len(via))))
+    figures = kinematic_figures(trajectory)
+    sampled, low, high = dense_extrema(trajectory)
+    scale = figures.max_abs.max(axis=1, keepdims=True)
+    assert np.all(sampled <= figures.max_abs + 1e-9 * scale)
+    assert np.all(sampled >= figures.max_abs - 1e-6 * np.maximum(figures.max_abs, 1e-3 * scale))
+    np.testing.assert_allclose(low, figures.position_min, rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(high, figures.position_max, rtol=1e-6, atol=1e-9)
