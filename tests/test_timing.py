@@ -360,3 +360,31 @@ def test_a_time_limit_must_be_a_positive_number_of_seconds(limit):
     with pytest.raises(InputError, match="time_limit_s must be a finite number of seconds > 0"):
         optimize(problem, "nlp", time_limit_s=limit)
     assert optimize(problem, "nlp", time_limit_s=np.float64(30)).feasible
+
+
+def test_the_default_planner_falls_back_to_the_shapes_when_its_nests_end_infeasible():
+    """Eight via-points, three on range bounds: the NLP from Cuckoo Search's nests (scaled by a nest)
+    ends infeasible, the NLP from the cheap shapes does not; the default keeps the feasible one."""
+    from conftest import clipped_walk
+    via, limits = clipped_walk(8, 9)
+    problem = TimingProblem(via, "hybrid", limits)
+    explored = cuckoo_search(problem, nests=10, iterations=5, refine_starts=2, seed=0)
+    result = optimize(problem)
+    assert result.feasible and result.total_time == pytest.approx(optimize(problem, "nlp").total_time, rel=1e-9)
+    if not explored.feasible:  # the case this guards (it was so when written)
+        assert result.stop_reason.startswith("the NLP from Cuckoo Search's nests ended infeasible")
+    figures = kinematic_figures(problem.trajectory(result.durations))
+    assert figures.violations(limits) == []
+
+
+def test_hermite7_takes_bounds_its_fixed_rule_alone_could_not_meet():
+    """Bounds around hermite7's own optimum: the parabola rule's trajectory at h_max breaks a limit, but
+    optimized via-point states meet them, so the problem is not refused up front and the optimum is kept."""
+    via, limits = np.deg2rad(paper.VIA_POINTS_DEG), paper.paper_limits()
+    free = optimize(TimingProblem(via, "hermite7", limits), "nlp")
+    bounds = (0.999 * free.durations.min(), 1.001 * free.durations.max())
+    fixed_rule = get_family("hermite7").build(via, np.full(len(free.durations), bounds[1]))
+    assert kinematic_figures(fixed_rule).violations(limits)  # what the up-front check would have refused
+    bounded = optimize(TimingProblem(via, "hermite7", limits, bounds=bounds), "nlp")
+    assert bounded.feasible and bounded.total_time == pytest.approx(free.total_time, rel=1e-4)
+    assert np.all(bounded.durations >= bounds[0] * (1 - 1e-9)) and np.all(bounded.durations <= bounds[1] * (1 + 1e-9))

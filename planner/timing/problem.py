@@ -136,8 +136,8 @@ class TimingProblem:
         self._check_via_points_in_range(limits)
         #: The limits, each position range widened to hold the via-points within tolerance of it.
         self.limits = limits.covering(self.via_points)
-        if self.bounds is not None:
-            self._check_upper_bound_feasible()
+        if self.bounds is not None and not self.family.free_states:  # free via-point states may meet the limits
+            self._check_upper_bound_feasible()  # where the family's fixed rule, all this check can build, does not
 
     # ------------------------------------------------------------------ set-up checks
 
