@@ -171,7 +171,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--debug", action="store_true", help="show tracebacks of unexpected errors")
     parser.add_argument("-v", "--verbose", action="count", default=0,
                         help="log what the stages do on stderr (IK choices, solver starts and rounds); -vv for more")
-    commands = parser.add_subparsers(dest="command", required=True)
+    # Not required here: an unknown option before the command is named as such (``main`` asks for the command).
+    commands = parser.add_subparsers(dest="command")
     plan = commands.add_parser("plan", help="plan a task file and write the outputs")
     plan.add_argument("task", help="YAML task file")
     plan.add_argument("--out", default="out", help="output folder (default: out); created if absent, refused if "
@@ -217,7 +218,10 @@ def main(argv=None, *, keep_signal_handlers: bool = False) -> int:
         if in_main_thread else {}
     debug, logged = False, None
     try:
-        args = build_parser().parse_args(argv)
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        if args.command is None:
+            parser.error("the following arguments are required: command")
         debug = args.debug
         logged = _log_to_stderr(args.verbose)
         return args.run(args)

@@ -22,7 +22,7 @@ from .errors import IKError, InfeasibleError, InputError, MissingLimitError, Pla
 from .export import coefficients_document, write_json, write_trajectory_csv
 from .ik import IKSolution, pose_from_position_quaternion, solve_waypoints
 from .kinematics import KinematicFigures, Violation, kinematic_figures
-from .limits import LIMITED, QUANTITIES, JointLimits, in_degrees_apart
+from .limits import FEASIBILITY_TOLERANCE, LIMITED, QUANTITIES, JointLimits, in_degrees_apart
 from .outputs import output_folder
 from .progress import TerminalProgress
 from .recording import write_recording
@@ -31,6 +31,7 @@ from .robot import Robot, load_robot
 from .splines import MAX_SAMPLES, PiecewisePolynomial
 from .task import Task, check_limit_counts, check_task, load_task, parse_task
 from .timing import OptimizationResult, TimingProblem, optimize
+from .timing.result import time_limit
 
 #: Significant digits of the numbers in summary.json (coefficients.json keeps every digit).
 SUMMARY_DIGITS = 12
@@ -247,12 +248,31 @@ def check_sample_count(task: Task, total_time: float, *, lower_bound: bool = Fal
     if slowed is None or slowed.slow_down <= 1:
         raise TaskError("trajectory.sample_rate_hz", f"{samples}; lower the rate or check the limits and duration "
                                                      f"bounds (they make the trajectory this long)")
+    raise TaskError(_binding_limit(slowed), f"slows the trajectory down {slowed.slow_down:.4g} times to meet it: "
+                                            f"{samples} (trajectory.sample_rate_hz); raise the limit or lower the rate")
+
+
+def _binding_limit(slowed: RobotLimitOutcome) -> str:
+    """The task key of the robot-aware limit that set ``slowed``'s slow-down (its largest ratio after it)."""
     ratios = slowed.largest_ratios()
     keys = {"torque": "limits.torque_nm", "tool_speed": "limits.tool_speed_m_s",
             "tool_angular_speed": "limits.tool_speed_deg_s"}
-    binding = keys[max(ratios, key=ratios.__getitem__)]
-    raise TaskError(binding, f"slows the trajectory down {slowed.slow_down:.4g} times to meet it: {samples} "
-                             f"(trajectory.sample_rate_hz); raise the limit or lower the rate")
+    return keys[max(ratios, key=ratios.__getitem__)]
+
+
+def check_slowed_bounds(durations: np.ndarray, bounds: tuple[float, float] | None, slowed: RobotLimitOutcome) -> None:
+    """Refuse a slow-down (torque, tool speed) that puts a segment above the duration bound h_max.
+
+    Raises:
+        TaskError: naming the robot-aware limit that set the slow-down, the segment and ``optimizer.bounds_s``.
+    """
+    if bounds is None or slowed.slow_down <= 1 or durations.max() <= bounds[1] * (1 + FEASIBILITY_TOLERANCE):
+        return
+    k = int(np.argmax(durations))
+    raise TaskError(_binding_limit(slowed), f"slows the trajectory down {slowed.slow_down:.4g} times to meet it, "
+                                            f"which makes segment {k} {durations[k]:.4g} s long, above the "
+                                            f"duration bound h_max = {bounds[1]:g} s (optimizer.bounds_s): raise "
+                                            f"h_max or the limit")
 
 
 def shortest_total_time(via: np.ndarray, limits: JointLimits, task: Task) -> float:
@@ -392,6 +412,9 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
     check_sample_count(task, shortest_total_time(via, limits, task), lower_bound=True)
     start = time.perf_counter()
     settings = task.optimizer
+    # One time limit for all of the plan's timing runs (both IK sequences', every straight-line round's):
+    # each runs within what is left of it, and one started after it keeps its first feasible candidate.
+    deadline = time.monotonic() + settings["time_limit"]
 
     def time_via_points(points: np.ndarray, what: str = "") -> tuple[PiecewisePolynomial,
                                                                       tuple[TimingProblem, OptimizationResult]]:
@@ -399,8 +422,9 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         problem = TimingProblem(points, task.family, limits, bounds=settings["bounds"],
                                 objective=settings["objective"], weights=settings["weights"],
                                 min_duration=task.min_segment_s)
-        result = optimize(problem, settings["algorithm"], seed=settings["seed"], progress=progress,
-                          time_limit_s=settings["time_limit"], **settings["settings"])
+        with time_limit(max(deadline - time.monotonic(), 0.0)):  # nested: the run's own limit cannot outlast it
+            result = optimize(problem, settings["algorithm"], seed=settings["seed"], progress=progress,
+                              time_limit_s=settings["time_limit"], **settings["settings"])
         progress.note(f"{progress.label}: total time {result.total_time:.6g} s, "
                       f"{'feasible' if result.feasible else 'INFEASIBLE'} ({result.wall_time_s:.2f} s)")
         if not result.feasible:
@@ -470,6 +494,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         trajectory, met = meet_robot_limits(
             robot, trajectory, None if given.torque is None else torque_limits(robot, given.torque), given.tool_speed,
             given.tool_angular_speed, trajectory.via_times[path.waypoint_via if path is not None else slice(None)])
+        check_slowed_bounds(trajectory.durations, settings["bounds"], met)
         if met.slow_down > 1:
             progress.note(f"slowed down {met.slow_down:.6g} times to meet the torque and tool-speed limits")
         timings["robot_limits"] = time.perf_counter() - start

@@ -74,6 +74,31 @@ def test_linear_mode_falls_back_to_the_other_rules_sequence_when_the_kept_one_ca
     assert turns < np.pi  # no joint jumps between neighbouring poses on the line
 
 
+def test_the_time_limit_covers_all_of_a_plans_timing_runs(tmp_path, monkeypatch):
+    """Both IK sequences and every straight-line round are timed: each run gets what is left of the one
+    limit (it was the whole limit each, 12 runs of a hermite7 plan took ten times its limit)."""
+    import time
+
+    import planner.pipeline as pipeline
+    from planner.timing.result import remaining_time
+    calls = []
+    original = pipeline.optimize
+
+    def recording(problem, algorithm, **settings):
+        assert settings["time_limit_s"] == 60  # the user's limit, as the stop reason names it
+        calls.append((time.monotonic(), remaining_time()))  # what the run may really take
+        return original(problem, algorithm, **settings)
+    monkeypatch.setattr(pipeline, "optimize", recording)
+    data = yaml.safe_load(linear_ur5_task(tmp_path).read_text())
+    data["optimizer"] = {"time_limit_s": 60}
+    plan(parse_task(data))
+    assert len(calls) >= 3  # two IK sequences timed, then the straight-line rounds
+    first = calls[0][0]
+    for started, limit in calls:
+        assert limit <= 60 - (started - first) + 1e-6  # what is left of the one limit, no more
+    assert calls[0][1] <= 60 and calls[-1][1] < calls[0][1]
+
+
 def test_linear_mode_keeps_the_tool_on_the_straight_segments(tmp_path):
     task = load_task(linear_ur5_task(tmp_path))
     result = plan(task)

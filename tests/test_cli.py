@@ -116,6 +116,16 @@ def test_usage_errors_are_one_line_and_exit_2(argv, capsys):
     assert info.value.code == 2 and err.count("\n") == 1 and err.startswith("error: planner")
 
 
+@pytest.mark.parametrize("argv, said", [(["--bogus"], "unrecognized arguments: --bogus"),
+                                        (["--bogus", "plan", "t.yaml"], "unrecognized arguments: --bogus"),
+                                        ([], "the following arguments are required: command")])
+def test_a_usage_error_names_what_is_wrong(argv, said, capsys):
+    """An unknown option before the command was reported as the missing command."""
+    with pytest.raises(SystemExit) as info:
+        main(argv)
+    assert info.value.code == 2 and said in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("argv, said", [
     (["plan", ""], "the task file's path is empty"),
     (["plan", "  "], "the task file's path is empty"),

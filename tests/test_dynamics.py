@@ -209,6 +209,23 @@ def test_robot_limits_need_a_robot_and_one_torque_per_joint(tmp_path):
         plan(paper_task(torque_nm="efforts"))
 
 
+def test_a_slow_down_beyond_the_duration_bounds_is_refused_naming_both():
+    """Meeting a torque limit slows the trajectory uniformly; where that puts a segment above h_max the
+    plan is refused, naming the limit, the segment and optimizer.bounds_s (the durations broke the bound
+    without a word). Within the bounds the same slow-down is kept."""
+    from planner.pipeline import check_slowed_bounds
+    data = paper_task(torque_nm=[0.5, 186, 89.4, 24.2, 20.1, 21.3])
+    data["optimizer"] = {"bounds_s": [1, 4]}
+    with pytest.raises(TaskError, match=r"^limits\.torque_nm: slows the trajectory down [\d.]+ times to meet it, "
+                                        r"which makes segment \d+ [\d.]+ s long, above the duration bound h_max = "
+                                        r"4 s \(optimizer\.bounds_s\)"):
+        plan(data)
+    data["optimizer"] = {"bounds_s": [1, 20]}
+    result = plan(data)
+    assert result.robot_limits.slow_down > 1 and result.trajectory.durations.max() <= 20
+    check_slowed_bounds(result.trajectory.durations, (1.0, 20.0), result.robot_limits)  # nothing to refuse
+
+
 def test_torque_limits_need_inertial_parameters(tmp_path):
     urdf = tmp_path / "bare.urdf"
     urdf.write_text(PENDULUM.replace('<inertial><origin xyz="{length} 0 0"/><mass value="{mass}"/>\n    <inertia ixx='

@@ -388,3 +388,16 @@ def test_hermite7_takes_bounds_its_fixed_rule_alone_could_not_meet():
     bounded = optimize(TimingProblem(via, "hermite7", limits, bounds=bounds), "nlp")
     assert bounded.feasible and bounded.total_time == pytest.approx(free.total_time, rel=1e-4)
     assert np.all(bounded.durations >= bounds[0] * (1 - 1e-9)) and np.all(bounded.durations <= bounds[1] * (1 + 1e-9))
+
+
+def test_nested_time_limits_end_at_the_earliest_deadline():
+    from planner.timing.result import remaining_time, time_limit
+    with time_limit(10.0):
+        with time_limit(100.0):
+            assert 9.0 < remaining_time() <= 10.0  # the enclosing limit ends first
+        with time_limit(1.0):
+            assert 0.0 < remaining_time() <= 1.0
+        with time_limit(None):
+            assert remaining_time() <= 10.0
+        assert remaining_time() > 9.0
+    assert remaining_time() is None

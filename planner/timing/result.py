@@ -118,8 +118,11 @@ class OutOfTime(Exception):
 
 @contextmanager
 def time_limit(seconds: float | None) -> Iterator[None]:
-    """Within the block, trackers stop the search (``OutOfTime``) once ``seconds`` [s] have passed."""
-    token = _deadline.set(None if seconds is None else time.monotonic() + seconds)
+    """Within the block, trackers stop the search (``OutOfTime``) once ``seconds`` [s] have passed, or
+    earlier where an enclosing block's limit ends first (nested limits: the earliest deadline holds)."""
+    outer = _deadline.get()
+    own = None if seconds is None else time.monotonic() + seconds
+    token = _deadline.set(own if outer is None else outer if own is None else min(outer, own))
     try:
         yield
     finally:
