@@ -77,15 +77,15 @@ def _replay(args) -> int:
     from .recording import open_in_viewer, read_recording
     if args.time is not None and args.screenshot is None:
         raise InputError("--time says when to take a --screenshot: give --screenshot OUT.png too")
-    targets: dict[str, Path] = {}
+    targets: list[Path] = []
     for option, target in (("--export-csv", args.export_csv), ("--screenshot", args.screenshot)):
         if target is not None:  # checked before reading: a bad target fails fast and leaves nothing
             resolved = check_output_file(target, force=True)
             if resolved == Path(args.recording).resolve():
                 raise OutputError(f"{option} {target} is the recording itself")
-            if resolved in targets.values():
+            if resolved in targets:
                 raise OutputError(f"--screenshot and --export-csv name the same file ({resolved}): give two")
-            targets[option] = resolved
+            targets.append(resolved)
             check_output_file(target, force=args.force)
     recorded = read_recording(args.recording)
     target = args.export_csv

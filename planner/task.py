@@ -36,11 +36,11 @@ Every error is a ``TaskError`` naming the key path, e.g.
 
 from __future__ import annotations
 
-import inspect
 import math
 import os
 import re
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -52,7 +52,7 @@ from .ik import BRANCH_RULES
 from .limits import LIMIT_DEG_RANGE, LIMITED, PROFILE_QUANTITIES
 from .read_only import freeze_arrays
 from .splines import FAMILIES
-from .timing import NOT_SETTINGS, OPTIMIZERS, SETTING_RANGES, checked_settings, settings_signature
+from .timing import OPTIMIZERS, SETTING_RANGES, checked_settings, setting_names
 from .timing.problem import OBJECTIVES
 from .validate import MAX_SEED, Range, number, ranged, within
 from .yaml_input import MAX_NESTING, key_path, read_yaml
@@ -94,7 +94,7 @@ UNIT_TOLERANCE = 1e-3
 TORQUE_NM = Range(1e-6, 1e7)
 #: Allowed values of every single number of a task, by key path; ``bool`` marks a true/false
 #: setting. The ``optimizer.*`` settings are the keyword arguments of the algorithms
-#: (``_optimizer_parameters``), each with its range here. Upper caps keep memory and run time
+#: (``timing.setting_names``), each with its range here. Upper caps keep memory and run time
 #: bounded and catch unit mistakes.
 RANGES: dict[str, Range | type] = {
     "ik.seed": Range(0, MAX_SEED, integer=True),
@@ -240,28 +240,31 @@ def _mapping(value, path: str, allowed) -> dict:
     return value
 
 
-def _number(value, path: str, *, integer: bool = False) -> float:
-    """``value`` as a finite float (or int if ``integer``): ``validate.number``, its error at key ``path``."""
+@contextmanager
+def _at(path: str) -> Iterator[None]:
+    """A ``validate`` check's ``InputError`` (the problem alone) as a ``TaskError`` at key ``path``."""
     try:
-        return number(value, integer=integer)
+        yield
     except InputError as exc:
         raise TaskError(path, str(exc)) from None
+
+
+def _number(value, path: str, *, integer: bool = False) -> float:
+    """``value`` as a finite float (or int if ``integer``): ``validate.number``, its error at key ``path``."""
+    with _at(path):
+        return number(value, integer=integer)
 
 
 def _ranged(value, path: str):
     """``value`` checked against ``RANGES[path]``: a number in its range, or true/false."""
-    try:
+    with _at(path):
         return ranged(value, RANGES[path])
-    except InputError as exc:
-        raise TaskError(path, str(exc)) from None
 
 
 def _within(number, given, path: str, rule: Range):
     """``number`` (read from ``given``) if it is in ``rule``; else a ``TaskError`` at ``path``."""
-    try:
+    with _at(path):
         return within(number, rule, given)
-    except InputError as exc:
-        raise TaskError(path, str(exc)) from None
 
 
 def _vector(value, path: str, rule: Range, length: int | None = None) -> np.ndarray:
@@ -439,18 +442,12 @@ def _path(value, path: str) -> PathOptions:
     return PathOptions(mode, tolerance_m, float(tolerance_rad))
 
 
-def _optimizer_parameters(algorithm: str) -> tuple[str, ...]:
-    """Names of the keyword settings of ``algorithm``, read from its signature (ranges in ``RANGES``)."""
-    return tuple(p.name for p in inspect.signature(settings_signature(algorithm)).parameters.values()
-                 if p.kind == p.KEYWORD_ONLY and p.name not in NOT_SETTINGS)
-
-
 def _optimizer(value, path: str) -> dict:
     value = {} if value is None else value
     if not isinstance(value, dict):
         raise TaskError(path, f"must be a mapping, got {type(value).__name__}")
     algorithm = _choice(value.get("algorithm", "default"), f"{path}.algorithm", OPTIMIZERS, "algorithm")
-    parameters = _optimizer_parameters(algorithm)
+    parameters = setting_names(algorithm)
     section = _mapping(value, path, _COMMON_OPTIMIZER_KEYS + parameters)
     settings: dict[str, Any] = {}
     result = {"algorithm": algorithm, "seed": 0, "bounds": None, "objective": "time", "weights": (1.0, 1.0),
@@ -700,8 +697,7 @@ def make_task(*positional, name: str = "task", robot: dict | None = None, joints
         raise TaskError(shown(next(iter(unknown)))[1:-1], f"is no keyword of make_task; it takes {keywords}")
     if (joints_deg is None) == (poses is None):
         raise TaskError("waypoints", "give exactly one of joints_deg or poses")
-    if poses is not None and (isinstance(poses, (str, bytes, Mapping)) or not isinstance(poses, Iterable)
-                              or type(poses).__module__.startswith("pinocchio")):
+    if poses is not None and (isinstance(poses, (str, bytes, Mapping)) or not isinstance(poses, Iterable)):
         raise TaskError("waypoints.cartesian", f"poses must be a list of tool poses (pinocchio.SE3 objects or "
                                                f"pose_entry mappings), got {type(poses).__name__}")
     waypoints = {"joints_deg": joints_deg} if poses is None else {"cartesian": [

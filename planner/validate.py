@@ -137,7 +137,7 @@ def positive_finite(value) -> bool:
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         return False
     try:
-        number = float(value)
+        magnitude = float(value)
     except OverflowError:
         return False
-    return math.isfinite(number) and number > 0
+    return math.isfinite(magnitude) and magnitude > 0

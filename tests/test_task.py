@@ -10,8 +10,8 @@ import pytest
 import yaml
 
 from planner import TaskError, paper
-from planner.task import RANGES, _optimizer_parameters, load_task, make_task, parse_task
-from planner.timing import OPTIMIZERS
+from planner.task import RANGES, load_task, make_task, parse_task
+from planner.timing import OPTIMIZERS, setting_names
 from planner.yaml_input import MAX_FILE_BYTES, MAX_NESTING, MAX_VALUES
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -366,12 +366,12 @@ def test_empty_and_misshapen_lists_are_refused(where, value):
 # Class 7: every optimizer setting has a range, in one table, and the messages name it.
 def test_every_optimizer_setting_has_a_range():
     for algorithm in OPTIMIZERS:
-        for name in _optimizer_parameters(algorithm):
+        for name in setting_names(algorithm):
             assert f"optimizer.{name}" in RANGES, (algorithm, name)
 
 
 def algorithm_with(setting: str) -> str:
-    return next((a for a in OPTIMIZERS if setting in _optimizer_parameters(a)), "default")
+    return next((a for a in OPTIMIZERS if setting in setting_names(a)), "default")
 
 
 @pytest.mark.parametrize("key", [k for k, rule in RANGES.items() if k.startswith("optimizer.")
@@ -418,7 +418,7 @@ def task_with(where: str, value) -> dict:
     for part in parts[:-1]:
         node = node[int(part[1:-1])] if part.startswith("[") else node.setdefault(part, {})
     node[int(parts[-1][1:-1]) if parts[-1].startswith("[") else parts[-1]] = value
-    if parts[0] == "optimizer" and any(parts[1] in _optimizer_parameters(a) for a in OPTIMIZERS):
+    if parts[0] == "optimizer" and any(parts[1] in setting_names(a) for a in OPTIMIZERS):
         data["optimizer"]["algorithm"] = algorithm_with(parts[1])
     return data
 

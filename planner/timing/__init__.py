@@ -98,6 +98,13 @@ def settings_signature(algorithm: str) -> Callable:
     return cuckoo_search if algorithm in ("default", "cuckoo-paper") else OPTIMIZERS[algorithm]
 
 
+def setting_names(algorithm: str) -> tuple[str, ...]:
+    """Names of ``algorithm``'s settings: its keyword parameters but ``NOT_SETTINGS`` (ranges in
+    ``SETTING_RANGES``; every algorithm also takes ``seed``)."""
+    return tuple(p.name for p in inspect.signature(settings_signature(algorithm)).parameters.values()
+                 if p.kind == p.KEYWORD_ONLY and p.name not in NOT_SETTINGS)
+
+
 def checked_settings(algorithm: str, settings: dict) -> dict:
     """``settings`` of ``algorithm`` (a name in ``OPTIMIZERS``), each checked against ``SETTING_RANGES``
     and numpy scalars made Python numbers.
@@ -108,7 +115,7 @@ def checked_settings(algorithm: str, settings: dict) -> dict:
         SettingError: naming the first setting ``algorithm`` does not take, or that is outside its range,
             and for Cuckoo Search ``refine_starts`` above ``nests``.
     """
-    taken = inspect.signature(settings_signature(algorithm)).parameters
+    names = setting_names(algorithm)
     checked = {}
     for name, value in settings.items():
         if name == "progress":
@@ -116,8 +123,7 @@ def checked_settings(algorithm: str, settings: dict) -> dict:
                 raise SettingError(name, f"must be a callable progress(done, total) or None, got {shown(value)}")
             checked[name] = value
             continue
-        if name not in taken or taken[name].kind != inspect.Parameter.KEYWORD_ONLY or name == "variant":
-            names = [key for key, p in taken.items() if p.kind == p.KEYWORD_ONLY and key not in NOT_SETTINGS]
+        if name != "seed" and name not in names:
             raise SettingError(name, f"{algorithm} takes no such setting; it takes: seed, {', '.join(names)}")
         if value is None and name in _MAY_BE_NONE:
             checked[name] = None
@@ -163,4 +169,4 @@ def optimize(problem: TimingProblem, algorithm: str = "default", *, time_limit_s
 
 __all__ = ["NOT_SETTINGS", "OPTIMIZERS", "SETTING_RANGES", "Evaluation", "OptimizationResult", "StartReport",
            "TimingProblem", "checked_settings", "cuckoo_search", "multistart_slsqp", "optimize", "particle_swarm",
-           "scipy_differential_evolution", "settings_signature", "shape_starts"]
+           "scipy_differential_evolution", "setting_names", "settings_signature", "shape_starts"]
