@@ -67,6 +67,8 @@ log = logging.getLogger(__name__)
 TOLERANCE = 1e-10
 _DAMPING = 1e-3
 _DAMPING_FLOOR = 1e-12
+#: Singular values of the Jacobian below this fraction of the largest count as zero (``_centring_step``).
+_SINGULAR = 1e-9
 _MAX_ITERATIONS = 100
 _ALTERNATIVES = 4
 BRANCH_RULES = ("optimal", "continuous")
@@ -199,16 +201,23 @@ def centred(robot: Robot, target: pin.SE3, solution: IKSolution, limits: JointLi
     Minimises the barrier b (``_barrier``; for large p its minimum approaches the configuration whose
     smallest distance to a bound is largest) on the configurations reaching ``target``. With its
     gradient g, diagonal Hessian H, the pose error e and its Jacobian J (as in ``solve_pose``), each
-    step solves  min g^T dq + dq^T H dq / 2  subject to  J dq = e:
+    step is dq = c + m, the sum of
 
-        dq = H^-1 (J^T lambda - g),     lambda = (J H^-1 J^T)^-1 (e + J H^-1 g),
+    * the correction c = J^+ e back onto the pose (damped least squares, as in ``solve_pose``), and
+    * the self-motion m = N z in the null space N of J (SVD; singular directions, below
+      ``_SINGULAR`` of the largest, count as null) minimising g^T dq + dq^T H dq / 2 over z:
+      (N^T H N) z = -N^T (g + H c), shortened to a trust radius (``_CENTRING_STEP``, shrinking by
+      ``_SHRINK`` per step in the second half of the ``_CENTRING_STEPS``, which damps the
+      oscillation the curvature of the self-motion can cause),
 
-    shortened to a trust radius (``_CENTRING_STEP``, shrinking by ``_SHRINK`` per step in the second
-    half of the ``_CENTRING_STEPS``, which damps the oscillation the curvature of the self-motion can
-    cause) and to ``_TO_BOUND`` of the way to any bound. A joint on a bound first moves ``_INSIDE``
-    of its range inside. Newton steps (``solve_pose`` without clipping) then bring the residual to
-    ``TOLERANCE``; the result is kept if it reaches the pose (``accept``), stays in the ranges and
-    has a margin no smaller than before.
+    the sum then shortened to ``_TO_BOUND`` of the way to any bound. The correction is never cut by
+    the trust radius: cut with the self-motion, the pose drifted away over large steps and the final
+    Newton steps landed outside the ranges. (Solving the same problem through its multipliers,
+    (J H^-1 J^T) lambda = e + J H^-1 g, fails near a bound: H grows like distance^-(p+2), 1e19 at
+    one degree, and J H^-1 J^T is singular to working precision in the directions only such
+    joints reach.) A joint on a bound first moves ``_INSIDE`` of its range inside. Newton steps
+    (``solve_pose`` without clipping) then bring the residual to ``TOLERANCE``; the result is kept
+    if it reaches the pose (``accept``), stays in the ranges and has a margin no smaller than before.
     """
     lower, upper = limits.lower, limits.upper
     bounded = np.isfinite(lower) & np.isfinite(upper)
@@ -221,20 +230,33 @@ def centred(robot: Robot, target: pin.SE3, solution: IKSolution, limits: JointLi
         error = pin.log6(offset).vector
         jacobian = pin.Jlog6(offset) @ robot.frame_jacobian(q)
         gradient, hessian = _barrier(q, lower, upper, bounded)
-        weighted = jacobian / hessian
-        multiplier = np.linalg.solve(weighted @ jacobian.T + _DAMPING_FLOOR * np.eye(6), error + weighted @ gradient)
-        step = (jacobian.T @ multiplier - gradient) / hessian
-        room = np.where(step < 0, q - lower, upper - q) / np.maximum(np.abs(step), 1e-300)
+        correction, motion = _centring_step(jacobian, error, gradient, hessian)
         radius = _CENTRING_STEP * _SHRINK ** max(0, iteration - _CENTRING_STEPS // 2)
-        scale = min(1.0, radius / max(np.abs(step).max(), 1e-300), _TO_BOUND * room[bounded].min())
-        q = pin.integrate(robot.model, q, scale * step)
-        if scale * np.abs(step).max() < _CENTRED:
+        step = correction + motion * min(1.0, radius / max(np.abs(motion).max(initial=0.0), 1e-300))
+        room = np.where(step < 0, q - lower, upper - q) / np.maximum(np.abs(step), 1e-300)
+        step = step * min(1.0, _TO_BOUND * room[bounded].min())
+        q = pin.integrate(robot.model, q, step)
+        if np.abs(step).max() < _CENTRED:
             break
     moved = solve_pose(robot, target, q, clip=False)
     if (moved.residual <= accept and np.all((moved.q >= lower) & (moved.q <= upper))
             and range_margin_deg(moved.q, limits) >= range_margin_deg(solution.q, limits)):
         return replace(moved, iterations=solution.iterations + moved.iterations)
     return solution
+
+
+def _centring_step(jacobian: np.ndarray, error: np.ndarray, gradient: np.ndarray,
+                   hessian: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``centred``'s correction c = J^+ e (damped) and self-motion m = N z, each (nv,) [rad]."""
+    u, singular, vt = np.linalg.svd(jacobian)
+    damping = _DAMPING * float(error @ error) + _DAMPING_FLOOR
+    correction = vt[:len(singular)].T @ ((u.T @ error) * singular / (singular ** 2 + damping))
+    null = vt[int(np.sum(singular > _SINGULAR * singular[0])):].T
+    if null.shape[1] == 0:
+        return correction, np.zeros_like(correction)
+    reduced = null.T @ (hessian[:, None] * null)
+    z = np.linalg.lstsq(reduced, -null.T @ (gradient + hessian * correction), rcond=None)[0]
+    return correction, null @ z
 
 
 def _nearest_turn(robot: Robot, q: np.ndarray, reference: np.ndarray) -> np.ndarray:

@@ -277,6 +277,41 @@ def test_the_widest_turn_variant_is_the_brute_force_one(puma, angles, spans):
     assert any(np.allclose(widest.q, v) for v in variants)
 
 
+def largest_margin_on_self_motion(robot, target, q0):
+    """An independent local maximum of the smallest distance to a range bound [deg] over the
+    configurations reaching ``target``, from ``q0`` (scipy's SLSQP on max t subject to the pose and
+    lower + t <= q <= upper - t)."""
+    from scipy.optimize import minimize
+    lower, upper, n = robot.limits.lower, robot.limits.upper, robot.dof
+    constraints = [{"type": "eq", "fun": lambda x: pose_error(robot, x[:n], target)},
+                   {"type": "ineq", "fun": lambda x: np.concatenate((x[:n] - lower - x[n], upper - x[:n] - x[n]))}]
+    start = np.append(q0, np.min(np.minimum(q0 - lower, upper - q0)))
+    found = minimize(lambda x: -x[n], start, jac=lambda x: np.r_[np.zeros(n), -1.0], constraints=constraints,
+                     method="SLSQP", options={"maxiter": 500, "ftol": 1e-12})
+    assert np.abs(pose_error(robot, found.x[:n], target)).max() < 1e-8
+    return float(np.rad2deg(found.x[n]))
+
+
+def test_centring_reaches_the_largest_margin_of_the_self_motion():
+    """A redundant arm's solution centred from anywhere in its ranges (here the configuration the pose
+    came from, often a degree or less from a bound) keeps the pose and reaches at least 90 % of the
+    largest margin an independent optimizer finds on the same self-motion (the barrier only
+    approximates the max-min margin). The centring once lost the pose near a bound and gave up
+    (0.9 deg kept where 5 deg was there)."""
+    from planner.ik import IKSolution, centred
+    robot = Robot.from_example_robot_data("panda", "panda_hand_tcp")
+    lower, upper = robot.limits.lower, robot.limits.upper
+    rng = np.random.default_rng(0)
+    for q in lower + (upper - lower) * rng.random((16, robot.dof)):
+        target = robot.forward_kinematics(q)
+        moved = centred(robot, target, IKSolution(q, 0.0, 0.0, 1, margin_deg=range_margin_deg(q, robot.limits)),
+                        robot.limits)
+        assert np.abs(pose_error(robot, moved.q, target)).max() <= 1e-9 and within_ranges(robot, moved.q)
+        assert moved.margin_deg == pytest.approx(range_margin_deg(moved.q, robot.limits))
+        best = largest_margin_on_self_motion(robot, target, moved.q)
+        assert moved.margin_deg >= 0.9 * best, (q, moved.margin_deg, best)
+
+
 def test_continuous_rule_takes_the_turn_nearest_the_previous_configuration(monkeypatch):
     """Whatever 2 pi representative the solver returns, the continuous rule keeps each joint within
     pi of the previous configuration where the ranges allow (UR5: +-360 deg)."""
