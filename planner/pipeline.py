@@ -339,14 +339,17 @@ def _check_configuration(q: np.ndarray | None, key: str, robot: Robot) -> None:
 def _on_bound_hint(problem: TimingProblem, violations: list[Violation]) -> str:
     """Why a range may be left: via-points on a range bound, where the joint must stop, which the
     families' continuity conditions fix from the durations (and cannot make 0 at many via-points at
-    once). Empty unless a position violation and such a via-point exist."""
+    once), and, for a family whose via-point states are not free, the one whose are. Empty unless a
+    position violation and such a via-point exist."""
     sides = problem.limits.bound_sides(problem.given_via_points)[1:-1]
     if not any(v.quantity == "position" for v in violations) or not sides.any():
         return ""
     k, j = np.argwhere(sides)[0]
+    free = "" if problem.family.free_states else \
+        " or set trajectory.family: hermite7, whose via-point velocities the optimizer chooses (it can stop there)"
     return (f"; {np.count_nonzero(sides)} via-point values sit on a range bound (first: via-point {k + 1}, joint "
             f"{problem.limits.names[j]}), where the joint must stop, which the {problem.family.name} spline's "
-            f"continuity conditions seldom allow at more than a few: move them inside their ranges")
+            f"continuity conditions seldom allow at more than a few: move them inside their ranges{free}")
 
 
 def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:

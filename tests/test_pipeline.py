@@ -7,7 +7,7 @@ import pytest
 import yaml
 
 import planner
-from conftest import clipped_walk
+from conftest import assert_plan_holds, clipped_walk
 from planner import (
     InfeasibleError,
     JointLimits,
@@ -290,8 +290,26 @@ def test_a_range_left_next_to_via_points_on_its_bounds_says_why():
                        "position_deg": np.rad2deg(np.vstack((limits.lower, limits.upper))).T.tolist()}}
     with pytest.raises(InfeasibleError, match=rf"position .* is (below|above) its (lower|upper) limit .*; "
                                               rf"{len(on_bound)} via-point values sit on a range bound \(first: "
-                                              rf"via-point {on_bound[0][0] + 1}, joint joint{on_bound[0][1] + 1}\)"):
+                                              rf"via-point {on_bound[0][0] + 1}, joint joint{on_bound[0][1] + 1}\)"
+                                              rf".* or set trajectory.family: hermite7"):
         plan(parse_task(task))
+
+
+def test_the_family_the_on_bound_hint_offers_plans_what_hybrid_cannot():
+    """Via-points resting on a range bound: hybrid leaves the range (its knot velocities follow from
+    the durations), the message offers hermite7, and hermite7 (free via-point velocities) plans it
+    within every limit, by dense sampling."""
+    via, limits = clipped_walk(6, 7)
+    task = {"version": 1, "name": "clipped", "waypoints": {"joints_deg": np.rad2deg(via).tolist()},
+            "limits": {"velocity_deg_s": np.rad2deg(limits.velocity).tolist(),
+                       "acceleration_deg_s2": np.rad2deg(limits.acceleration).tolist(),
+                       "jerk_deg_s3": np.rad2deg(limits.jerk).tolist(),
+                       "position_deg": np.rad2deg(np.vstack((limits.lower, limits.upper))).T.tolist()}}
+    with pytest.raises(InfeasibleError, match="or set trajectory.family: hermite7"):
+        plan(parse_task(task))
+    result = plan(parse_task({**task, "trajectory": {"family": "hermite7"}}))
+    assert result.summary()["feasible"] is True
+    assert_plan_holds(result)
 
 
 def test_an_infeasible_optimum_names_its_worst_violation_in_text_and_attributes(monkeypatch):
