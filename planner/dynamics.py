@@ -22,7 +22,10 @@ samples, slowed too, where the law below holds exactly). Running the whole traje
 
 The kinematic limits only become slacker when slowing down, so the kinematic
 optimum, slowed by the smallest such k, meets every limit: feasible, though not
-time-optimal under torque (a uniform slow-down, not a re-timing).
+time-optimal under torque (a uniform slow-down, not a re-timing). Where it has
+to slow down, the planner also times the trajectory again with these limits as
+constraints of the NLP (``timing.robot_rows``) and keeps the faster of the two,
+each made to meet the limits here.
 """
 
 from __future__ import annotations
@@ -197,6 +200,9 @@ class RobotLimitOutcome:
         torque_limit: (J,) [N m], tool_speed [m/s], tool_angular_speed [rad/s]: the limits (None: not given).
         slow_down: the factor k >= 1 every duration was multiplied by (1: none needed).
         check: the torques and tool speeds of the final trajectory at its samples.
+        uniform_total_s: where the NLP timed the trajectory again with these limits as constraints
+            (``timing.robot_rows``) and that was faster, the total time [s] slowing the kinematic
+            optimum down took instead (the slow-down is then the re-timed trajectory's); else None.
     """
 
     torque_limit: np.ndarray | None
@@ -204,6 +210,7 @@ class RobotLimitOutcome:
     tool_angular_speed: float | None
     slow_down: float
     check: RobotLimitCheck
+    uniform_total_s: float | None = None
 
     def _peaks(self) -> dict[str, tuple]:
         """Each limited quantity's largest magnitude at the samples and its limit: ``torque`` ((J,) per
@@ -225,8 +232,11 @@ class RobotLimitOutcome:
 
     def summary(self) -> dict[str, object]:
         """The largest |torque| per joint [N m] and its ratio to the limit, and the largest tool
-        speeds and their ratios (for the limits given), the slow-down and the sampling."""
-        figures: dict[str, object] = {"slow_down": self.slow_down, "samples": len(self.check.times),
+        speeds and their ratios (for the limits given), the slow-down, whether the NLP timed the
+        trajectory again with these limits (and then the uniform slow-down's total time) and the sampling."""
+        figures: dict[str, object] = {"slow_down": self.slow_down, "retimed_in_nlp": self.uniform_total_s is not None,
+                                      "uniform_slow_down_total_time_s": self.uniform_total_s,
+                                      "samples": len(self.check.times),
                                       "sampling": f"{SAMPLE_RATE_HZ:g} Hz, at least {MIN_SAMPLES_PER_SEGMENT} per "
                                                   f"segment, at most {MAX_SAMPLES} in all"}
         peaks = self._peaks()

@@ -31,7 +31,9 @@ from .robot import Robot, load_robot
 from .splines import MAX_SAMPLES, PiecewisePolynomial
 from .task import Task, check_limit_counts, check_task, load_task, parse_task
 from .timing import OptimizationResult, TimingProblem, optimize
+from .timing.nlp import robot_refine
 from .timing.result import time_limit
+from .timing.robot_rows import RobotConstraints
 
 #: Significant digits of the numbers in summary.json (coefficients.json keeps every digit).
 SUMMARY_DIGITS = 12
@@ -214,6 +216,9 @@ class PlanResult:
                       torques=None if self.torque_limit is None else (self.torques_at, self.torque_limit))
 
 
+#: The algorithms whose plans are timed again with the torque and tool-speed limits in the NLP when
+#: those slow the kinematic optimum down (the others end there: they have no NLP of their own).
+ROBOT_AWARE_ALGORITHMS = ("default", "nlp")
 #: The files ``PlanResult.write`` writes.
 OUTPUT_FILES = ("summary.json", "trajectory.csv", "coefficients.json", "profiles.png", "trajectory.rrd")
 #: Processes that write the outputs (``PlanResult.write``): the recording and coefficients, the figure,
@@ -494,11 +499,30 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         start = time.perf_counter()
         given = task.robot_limits
         progress.note("checking torques and tool speed")
-        trajectory, met = meet_robot_limits(
-            robot, trajectory, None if given.torque is None else torque_limits(robot, given.torque), given.tool_speed,
-            given.tool_angular_speed, trajectory.via_times[path.waypoint_via if path is not None else slice(None)])
+        torque = None if given.torque is None else torque_limits(robot, given.torque)
+        at_waypoints: np.ndarray | slice = path.waypoint_via if path is not None else slice(None)
+
+        def meet(timed: PiecewisePolynomial) -> tuple[PiecewisePolynomial, RobotLimitOutcome]:
+            return meet_robot_limits(robot, timed, torque, given.tool_speed, given.tool_angular_speed,
+                                     timed.via_times[at_waypoints])
+        trajectory, met = meet(trajectory)
+        constraints = RobotConstraints(robot, torque, given.tool_speed)
+        if met.slow_down > 1 and settings["algorithm"] in ROBOT_AWARE_ALGORITHMS and constraints.supported:
+            progress.note(f"slowed down {met.slow_down:.6g} times; timing again with the torque and tool-speed "
+                          f"limits in the NLP")
+            with time_limit(max(deadline - time.monotonic(), 0.0)):
+                retimed = problem.trajectory(*robot_refine(problem, constraints, result.durations * met.slow_down))
+            try:
+                candidate, candidate_met = meet(retimed)
+            except InfeasibleError:  # its path (the spline's shape changed) needs more than a limit to hold still
+                candidate = None
+            if candidate is not None and candidate.total_time < trajectory.total_time:
+                trajectory, met = candidate, replace(candidate_met, uniform_total_s=trajectory.total_time)
         check_slowed_bounds(trajectory.durations, settings["bounds"], met)
-        if met.slow_down > 1:
+        if met.uniform_total_s is not None:
+            progress.note(f"timed with the torque and tool-speed limits: {trajectory.total_time:.6g} s, where slowing "
+                          f"the kinematic optimum down takes {met.uniform_total_s:.6g} s")
+        elif met.slow_down > 1:
             progress.note(f"slowed down {met.slow_down:.6g} times to meet the torque and tool-speed limits")
         timings["robot_limits"] = time.perf_counter() - start
     check_sample_count(task, trajectory.total_time, slowed=met)

@@ -83,6 +83,19 @@ from ..native_output import stderr_captured
 from .formulations import FORMULATIONS, Scales, SegmentBlock
 from .problem import TimingProblem
 from .result import AGREEMENT, SearchTracker, StartReport, remaining_time
+from .robot_rows import (
+    MODEL_TOLERANCE,
+    SAMPLES_PER_SEGMENT,
+    FrozenModel,
+    RobotConstraints,
+    freeze,
+    model_error,
+    parameters,
+    point_rows,
+    row_bounds,
+    sample_points,
+    spline_states,
+)
 from .starts import recombined
 
 log = logging.getLogger(__name__)
@@ -204,10 +217,12 @@ class TimingNLP:
     Args:
         problem: the timing problem.
         reference: (S,) feasible durations [s] that set the variable scales.
+        robot: torque and tool-speed limits to impose too (``robot_rows.py``), or None.
     """
 
-    def __init__(self, problem: TimingProblem, reference: np.ndarray):
+    def __init__(self, problem: TimingProblem, reference: np.ndarray, robot: RobotConstraints | None = None):
         self.problem = problem
+        self.robot = robot if robot is not None and robot.supported else None
         family = problem.family
         reference = np.asarray(reference, dtype=float)
         coefficients = family.batch_coefficients(problem.via_points, reference[None])
@@ -231,14 +246,16 @@ class TimingNLP:
         if problem.family.free_states:  # every limit but the knot values is left to cuts: without cuts from
             # the start, the first round would shrink every duration towards 0 (and the next start from there)
             certificates, _ = self._certify([], coefficients, h, everywhere=True)
+        frozen = self._freeze(coefficients, h)
         iterations, status, rounds = 0, "not solved", 0
         while rounds < MAX_ROUNDS:
             rounds += 1
             program = self._program(certificates)
             extra = self._certificate_start(certificates, coefficients, h)
+            model = np.zeros(0) if frozen is None else parameters(frozen).ravel(order="F")
             with stderr_captured():  # CasADi's own warnings (an interrupted solve) stay off the terminal
                 solution = program.solver(x0=np.concatenate((core, extra)), lbx=program.lbx, ubx=program.ubx,
-                                          lbg=program.lbg, ubg=program.ubg)
+                                          lbg=program.lbg, ubg=program.ubg, p=model)
             check_interrupted()  # IPOPT swallows a Ctrl-C or SIGTERM raised inside it
             stats = program.solver.stats()
             iterations += int(stats.get("iter_count", 0))
@@ -256,12 +273,35 @@ class TimingNLP:
             states = self.formulation.via_point_states(core[problem.segment_count:])
             batch_states = None if states is None else states[None]
             coefficients = problem.coefficients(h[None], batch_states)[0]
+            settled = True
+            if frozen is not None:  # the robot model was frozen at the previous round's trajectory
+                assert self.robot is not None
+                samples = spline_states(coefficients, h, *self._robot_points())
+                gap = model_error(self.robot, frozen, *samples)
+                log.debug("round %d: the robot model is off by %.3g of a limit", rounds, gap)
+                settled = gap <= MODEL_TOLERANCE
+                frozen = freeze(self.robot, *samples)
             if problem.evaluate_durations(h[None], batch_states).feasible[0]:
-                break
+                if settled:
+                    break
+                continue
             certificates, changed = self._certify(certificates, coefficients, h)
-            if not changed:
+            if not changed and settled:
                 break
         return NLPOutcome(h, iterations, rounds, status, len(certificates), states)
+
+    # ------------------------------------------------------------------ robot-aware limits
+
+    def _robot_points(self) -> tuple[np.ndarray, np.ndarray]:
+        """(segment, s) of the torque and tool-speed samples, block by block (``robot_rows.sample_points``)."""
+        points = [sample_points(block.segments) for block in self.blocks]
+        return np.concatenate([p[0] for p in points]), np.concatenate([p[1] for p in points])
+
+    def _freeze(self, coefficients: np.ndarray, h: np.ndarray) -> FrozenModel | None:
+        """The robot model frozen at the spline (coefficients (S, J, D+1), durations (S,)); None without one."""
+        if self.robot is None:
+            return None
+        return freeze(self.robot, *spline_states(coefficients, h, *self._robot_points()))
 
     # ------------------------------------------------------------------ certificates
 
@@ -376,7 +416,8 @@ class TimingNLP:
     # ------------------------------------------------------------------ building
 
     def _program(self, certificates: list[Certificate]) -> "_Program":
-        """The NLP with these certificates (the one without any is built once and kept)."""
+        """The NLP with these certificates (the one without any is built once and kept); its parameters
+        are the robot model's numbers (``robot_rows.parameters``), where there is one."""
         if certificates:
             return _Program(self, certificates)
         if self._base is None:
@@ -457,6 +498,21 @@ class _Program:
                 rows += certified
                 lower += [np.zeros(len(chosen))] * len(certified)
                 upper += [np.full(len(chosen), np.inf)] * len(certified)
+        model = ca.MX.zeros(0, 1)
+        if nlp.robot is not None:  # the robot model's rows at every sample, its numbers the NLP's parameters
+            joints = problem.joint_count
+            function = point_rows(ca, nlp.robot, joints)
+            low, high = row_bounds(nlp.robot, joints)
+            counts = [len(block.segments) * SAMPLES_PER_SEGMENT for block in spline.blocks]
+            model = ca.MX.sym("robot_model", function.size1_in(3) * sum(counts))
+            numbers = ca.reshape(model, function.size1_in(3), sum(counts))
+            offset = 0
+            for block, count in zip(spline.blocks, counts):
+                states = [state.T for state in _sampled_states(ca, block, h)]
+                rows.append(ca.vec(function.map(count)(*states, numbers[:, offset:offset + count])))
+                lower.append(np.tile(low, count))
+                upper.append(np.tile(high, count))
+                offset += count
         certificate_variables = ca.vertcat(*extra) if extra else ca.MX.zeros(0, 1)
         objective = ca.sum1(h)
         if problem.uses_jerk_energy:
@@ -479,7 +535,7 @@ class _Program:
         if remaining is not None:
             options["ipopt.max_wall_time"] = max(remaining, 1e-3)
         self.solver = ca.nlpsol("timing", "ipopt", {"x": variables, "f": objective / scales.time,
-                                                    "g": ca.vertcat(*rows)}, options)
+                                                    "g": ca.vertcat(*rows), "p": model}, options)
 
 
 def _certified_quantities(ca, certificates: list[Certificate], blocks: list[SegmentBlock], h) -> list:
@@ -501,6 +557,21 @@ def _certified_quantities(ca, certificates: list[Certificate], blocks: list[Segm
             term = falling * _pick(ca, ca.vec(block.coefficients[power + order]), flat) * inverse
             f[power] = f[power] + ca.mtimes(spread, term)
     return f
+
+
+def _sampled_states(ca, block: SegmentBlock, h) -> tuple:
+    """(K * SAMPLES_PER_SEGMENT, J) q, q', q'' of ``block``'s segments at s = m / SAMPLES_PER_SEGMENT,
+    sample-major (``robot_rows.sample_points``): q^(d)(s h) = h^-d P^(d)(s)."""
+    joints = block.coefficients[0].shape[1]
+    duration = ca.repmat(_pick(ca, h, block.segments), 1, joints)
+    states: list[list] = [[], [], []]
+    for m in range(SAMPLES_PER_SEGMENT):
+        s = m / SAMPLES_PER_SEGMENT
+        for order in range(3):
+            value = sum(block.coefficients[i] * (factorial(i) / factorial(i - order) * s ** (i - order))
+                        for i in range(order, block.degree + 1))
+            states[order].append(value / duration ** order if order else value)
+    return tuple(ca.vertcat(*values) for values in states)
 
 
 def _pick(ca, column, indices):
@@ -586,3 +657,19 @@ def _report(tracker: SearchTracker, label: str, outcome: NLPOutcome) -> tuple[np
         report.objective, "feasible" if report.feasible else "INFEASIBLE", report.status, report.iterations,
         report.rounds, report.certificates)
     return result.durations[0], report
+
+
+def robot_refine(problem: TimingProblem, robot: RobotConstraints,
+                 start: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """Durations (S,) [s] and via-point states (n, J, 3) (None: the family's rule) of the NLP with
+    ``robot``'s torque and tool-speed rows (``robot_rows.py``) too, solved from durations ``start``
+    (S,) [s]; the kinematic limits are then met exactly by slowing down where the rows' rounds left
+    a kinematic limit exceeded (never sped up: the robot's limits may be what binds). The caller
+    checks the torque and tool speed densely (``dynamics.meet_robot_limits``)."""
+    nlp = TimingNLP(problem, start, robot)
+    outcome = nlp.solve(np.asarray(start, dtype=float))
+    h, states = outcome.durations, outcome.states
+    repaired = problem.evaluate(h[None]) if states is None else problem.evaluate_states(h[None], states[None])
+    if repaired.durations[0].sum() > h.sum():
+        return repaired.durations[0], None if repaired.states is None else repaired.states[0]
+    return h, states

@@ -1,0 +1,245 @@
+"""Joint torques and the tool's speed as constraints of the timing NLP (``nlp.py``).
+
+Neither is a polynomial of the NLP's variables: torque is Pinocchio's RNEA,
+tau(q, q', q'') = M(q) q'' + c(q, q') + g(q), and the tool's linear speed is
+|J_v(q) q'|. Each round of the NLP (``TimingNLP.solve``) therefore uses a model
+frozen at the previous round's trajectory, at ``SAMPLES_PER_SEGMENT`` points
+s = m / SAMPLES_PER_SEGMENT (m = 0 .. SAMPLES_PER_SEGMENT - 1) of every segment,
+at positions, velocities and accelerations (q0, v0, a0) there:
+
+    tau ~ M(q0) q'' + sum_a q'_a C_a(q0) q' + g(q0) + dtau/dq (q - q0),
+    v   ~ J_v(q0) q' + dv/dq (q - q0),   |v|^2 <= V^2,
+
+with q, q', q'' the spline's at the same point (expressions of the durations
+and knot states), C_a = C(q0, e_a) Pinocchio's Coriolis matrix for the unit
+velocity of joint a (c(q, q') = C(q, q') q' is linear in q' through C, so
+quadratic in q'), dtau/dq from ``computeRNEADerivatives`` and dv/dq from
+``getFrameVelocityDerivatives``, both exact, at (q0, v0, a0). The model is
+exact in q' and q'' at the frozen positions (a duration change scales q' and
+q'' but keeps positions, so the first round already sees the right slow-down)
+and first-order in q. At a trajectory equal to the one it was frozen at, the
+model and its derivatives equal the true torque and speed and theirs: where the
+rounds settle, the NLP's optimality conditions are those of the true problem.
+Rounds stop once the model agrees with the true values at the solved
+trajectory to ``MODEL_TOLERANCE`` of the limits (the gap shrinks about
+twofold per round late on; the dense check below closes what is left).
+
+The rows: one CasADi function of a single sample point (``point_rows``, in
+scalar form), mapped over all of them, with the frozen model's numbers as the
+NLP's parameters (``parameters``), so a new round changes numbers, not the
+program.
+
+Eight samples per segment, where the segment's q'' (a polynomial of low
+degree) makes torque and speed smooth. After the solve the trajectory is
+checked densely (``dynamics.meet_robot_limits``, 1 kHz) and slowed down
+uniformly by what the samples missed: on the bundled tasks nothing (UR5,
+torque), 0.2 % (UR5, 0.25 m/s tool speed) and 2 % (PUMA paper task, 0.25 m/s,
+segments of several seconds). The kinematic limits stay exact; these stay
+sampled.
+
+Arms whose configuration has more coordinates than velocities (continuous
+joints as cos/sin pairs) are not modelled here: ``supported`` says so, and the
+planner then only slows the kinematic optimum down.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from math import factorial
+
+import numpy as np
+import pinocchio as pin
+
+from ..robot import Robot
+
+#: Torque and tool-speed samples per segment in the NLP (module docstring).
+SAMPLES_PER_SEGMENT = 8
+#: Rounds stop when the frozen model is within this fraction of each limit of the true values.
+MODEL_TOLERANCE = 1e-3
+
+
+@dataclass(frozen=True)
+class RobotConstraints:
+    """The robot-aware limits the NLP imposes.
+
+    Attributes:
+        robot: the robot (its Pinocchio model, its tool frame).
+        torque: (J,) torque limits [N m], or None.
+        tool_speed: the tool frame's largest linear speed [m/s], or None.
+    """
+
+    robot: Robot
+    torque: np.ndarray | None
+    tool_speed: float | None
+
+    @property
+    def supported(self) -> bool:
+        """Whether the NLP can model this robot (one coordinate per velocity) and a limit is given."""
+        return self.robot.model.nq == self.robot.model.nv and (self.torque is not None or self.tool_speed is not None)
+
+
+@dataclass(frozen=True)
+class FrozenModel:
+    """The model of the module docstring at P sample points (arrays over the points first).
+
+    Attributes:
+        q: (P, J) positions [rad] it was frozen at.
+        mass: (P, J, J) M(q0); coriolis: (P, J, J, J) C_a(q0) indexed [point, a, row, column].
+        torque_offset: (P, J) g(q0) - dtau/dq q0 [N m]; torque_position: (P, J, J) dtau/dq.
+        speed_velocity: (P, 3, J) J_v(q0); speed_position: (P, 3, J) dv/dq;
+            speed_offset: (P, 3) -dv/dq q0 [m/s]. None without a tool-speed limit.
+    """
+
+    q: np.ndarray
+    mass: np.ndarray | None
+    coriolis: np.ndarray | None
+    torque_offset: np.ndarray | None
+    torque_position: np.ndarray | None
+    speed_velocity: np.ndarray | None
+    speed_position: np.ndarray | None
+    speed_offset: np.ndarray | None
+
+
+def sample_points(segments: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(segment, s) of every sample of ``segments`` (K,), sample-major: (K * SAMPLES_PER_SEGMENT,) each."""
+    s = np.arange(SAMPLES_PER_SEGMENT) / SAMPLES_PER_SEGMENT
+    return np.tile(segments, SAMPLES_PER_SEGMENT), np.repeat(s, len(segments))
+
+
+def spline_states(coefficients: np.ndarray, durations: np.ndarray, segments: np.ndarray,
+                  s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(P, J) q, q', q'' of a spline (coefficients (S, J, D+1) in local time, durations (S,) [s]) at
+    normalised time ``s`` of ``segments`` (P,)."""
+    tau = s * durations[segments]
+    local = coefficients[segments]  # (P, J, D+1)
+    degree = local.shape[-1] - 1
+    values = []
+    for order in range(3):
+        total = np.zeros(local.shape[:2])
+        for i in range(degree, order - 1, -1):
+            total = total * tau[:, None] + local[..., i] * (factorial(i) / factorial(i - order))
+        values.append(total)
+    return values[0], values[1], values[2]
+
+
+def freeze(constraints: RobotConstraints, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> FrozenModel:
+    """The model (module docstring) at P points: positions (P, J) [rad], velocities, accelerations."""
+    robot = constraints.robot
+    model, data = robot.model, robot.model.createData()
+    points, joints = q.shape
+    mass = coriolis = torque_offset = torque_position = None
+    speed_velocity = speed_position = speed_offset = None
+    if constraints.torque is not None:
+        mass, coriolis = np.zeros((points, joints, joints)), np.zeros((points, joints, joints, joints))
+        torque_offset, torque_position = np.zeros((points, joints)), np.zeros((points, joints, joints))
+        unit = np.eye(joints)
+        for p in range(points):
+            dq, _, dqdd = pin.computeRNEADerivatives(model, data, q[p], qd[p], qdd[p])
+            mass[p] = dqdd
+            mass[p] = np.triu(mass[p]) + np.triu(mass[p], 1).T  # Pinocchio fills the upper triangle
+            torque_position[p] = dq
+            torque_offset[p] = pin.computeGeneralizedGravity(model, data, q[p]) - dq @ q[p]
+            for a in range(joints):
+                coriolis[p, a] = pin.computeCoriolisMatrix(model, data, q[p], unit[a])
+    if constraints.tool_speed is not None:
+        speed_velocity, speed_position = np.zeros((points, 3, joints)), np.zeros((points, 3, joints))
+        frame, local = robot.tool_frame_id, pin.ReferenceFrame.LOCAL
+        for p in range(points):
+            pin.computeForwardKinematicsDerivatives(model, data, q[p], qd[p], qdd[p])
+            dv_dq, dv_dv = pin.getFrameVelocityDerivatives(model, data, frame, local)
+            speed_position[p], speed_velocity[p] = dv_dq[:3], dv_dv[:3]
+        speed_offset = -np.einsum("pij,pj->pi", speed_position, q)
+    return FrozenModel(q, mass, coriolis, torque_offset, torque_position, speed_velocity, speed_position,
+                       speed_offset)
+
+
+def modelled(frozen: FrozenModel, q: np.ndarray, qd: np.ndarray,
+             qdd: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The model's torques (P, J) [N m] and tool velocities (P, 3) [m/s] at (P, J) q, q', q'' (numeric)."""
+    torque = velocity = None
+    if frozen.mass is not None:
+        assert frozen.coriolis is not None and frozen.torque_position is not None
+        torque = (np.einsum("pij,pj->pi", frozen.mass, qdd) + np.einsum("pa,paib,pb->pi", qd, frozen.coriolis, qd)
+                  + frozen.torque_offset + np.einsum("pij,pj->pi", frozen.torque_position, q))
+    if frozen.speed_velocity is not None:
+        assert frozen.speed_position is not None
+        velocity = (np.einsum("pij,pj->pi", frozen.speed_velocity, qd) + frozen.speed_offset
+                    + np.einsum("pij,pj->pi", frozen.speed_position, q))
+    return torque, velocity
+
+
+def true_values(constraints: RobotConstraints, q: np.ndarray, qd: np.ndarray,
+                qdd: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """RNEA torques (P, J) [N m] and the tool's linear velocities (P, 3) [m/s] at (P, J) q, q', q''."""
+    robot = constraints.robot
+    model, data = robot.model, robot.model.createData()
+    torque = velocity = None
+    if constraints.torque is not None:
+        torque = np.array([pin.rnea(model, data, a, b, c) for a, b, c in zip(q, qd, qdd)]).reshape(q.shape)
+    if constraints.tool_speed is not None:
+        frame, local = robot.tool_frame_id, pin.ReferenceFrame.LOCAL
+        velocity = np.array([pin.computeFrameJacobian(model, data, a, frame, local)[:3] @ b
+                             for a, b in zip(q, qd)]).reshape(len(q), 3)
+    return torque, velocity
+
+
+def model_error(constraints: RobotConstraints, frozen: FrozenModel, q: np.ndarray, qd: np.ndarray,
+                qdd: np.ndarray) -> float:
+    """The largest gap between model and truth at (P, J) q, q', q'', as a fraction of the limit."""
+    model_torque, model_velocity = modelled(frozen, q, qd, qdd)
+    torque, velocity = true_values(constraints, q, qd, qdd)
+    gap = 0.0
+    if torque is not None and model_torque is not None and constraints.torque is not None:
+        gap = max(gap, float(np.max(np.abs(torque - model_torque) / constraints.torque)))
+    if velocity is not None and model_velocity is not None and constraints.tool_speed is not None:
+        gap = max(gap, float(np.max(np.linalg.norm(velocity - model_velocity, axis=1))) / constraints.tool_speed)
+    return gap
+
+
+def parameters(frozen: FrozenModel) -> np.ndarray:
+    """(K, P) the model's numbers at each of its P points, one column per point, in the order
+    ``point_rows`` reads them: mass, Coriolis, torque offset and position terms, then the tool's."""
+    columns = [frozen.mass, frozen.coriolis, frozen.torque_offset, frozen.torque_position,
+               frozen.speed_velocity, frozen.speed_position, frozen.speed_offset]
+    points = frozen.q.shape[0]
+    return np.vstack([value.reshape(points, -1).T for value in columns if value is not None])
+
+
+def point_rows(ca, constraints: RobotConstraints, joints: int):
+    """A CasADi function (q, q', q'', model) -> rows of one sample point, each to lie in ``row_bounds``:
+    tau_j / L_j, then |v|^2 / V^2 (module docstring; ``model`` is a column of ``parameters``). Built
+    once in scalar form, it is mapped over the points (``Function.map``)."""
+    q, qd, qdd = (ca.SX.sym(name, joints) for name in ("q", "qd", "qdd"))
+    sizes = []
+    if constraints.torque is not None:
+        sizes += [joints * joints, joints ** 3, joints, joints * joints]
+    if constraints.tool_speed is not None:
+        sizes += [3 * joints, 3 * joints, 3]
+    model = ca.SX.sym("model", sum(sizes))
+    parts = ca.vertsplit(model, np.cumsum([0, *sizes]).tolist())
+    found = []
+    if constraints.torque is not None:
+        mass, coriolis, offset, position = parts[:4]
+        mass, position = ca.reshape(mass, joints, joints).T, ca.reshape(position, joints, joints).T
+        tau = mass @ qdd + offset + position @ q
+        for a in range(joints):  # C_a, stored row-major at [a * J * J, (a + 1) * J * J)
+            tau += qd[a] * (ca.reshape(coriolis[a * joints * joints:(a + 1) * joints * joints], joints, joints).T @ qd)
+        found.append(tau / ca.DM(np.asarray(constraints.torque, dtype=float)))
+        parts = parts[4:]
+    if constraints.tool_speed is not None:
+        jacobian, position, offset = parts
+        velocity = ca.reshape(jacobian, joints, 3).T @ qd + ca.reshape(position, joints, 3).T @ q + offset
+        found.append(ca.sumsqr(velocity) / float(constraints.tool_speed) ** 2)
+    return ca.Function("robot_rows", [q, qd, qdd, model], [ca.vertcat(*found)])
+
+
+def row_bounds(constraints: RobotConstraints, joints: int) -> tuple[np.ndarray, np.ndarray]:
+    """(lower, upper) of ``point_rows``' rows."""
+    lower, upper = [], []
+    if constraints.torque is not None:
+        lower += [-1.0] * joints
+        upper += [1.0] * joints
+    if constraints.tool_speed is not None:
+        lower.append(-np.inf)
+        upper.append(1.0)
+    return np.array(lower), np.array(upper)

@@ -1,0 +1,114 @@
+"""The NLP's torque and tool-speed model (planner.timing.robot_rows) against Pinocchio's own RNEA and
+frame velocity, finite differences, and its CasADi rows against its numeric form."""
+
+import casadi as ca
+import numpy as np
+import pinocchio as pin
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from planner.robot import Robot
+from planner.timing.robot_rows import (
+    RobotConstraints,
+    freeze,
+    modelled,
+    parameters,
+    point_rows,
+    row_bounds,
+    sample_points,
+    spline_states,
+)
+
+LIMITS = np.array([150.0, 150.0, 150.0, 28.0, 28.0, 28.0])
+
+
+@pytest.fixture(scope="module")
+def ur5():
+    return Robot.from_example_robot_data("ur5", "tool0")
+
+
+def rnea(robot, q, qd, qdd):
+    model, data = robot.model, robot.model.createData()
+    return np.array([pin.rnea(model, data, a, b, c) for a, b, c in zip(q, qd, qdd)])
+
+
+def tool_velocity(robot, q, qd):
+    """The tool origin's linear velocity in world axes: a different frame from the model's, same norm."""
+    model, data = robot.model, robot.model.createData()
+    return np.array([pin.computeFrameJacobian(model, data, a, robot.tool_frame_id,
+                                              pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)[:3] @ b for a, b in zip(q, qd)])
+
+
+states = arrays(float, (3, 4, 6), elements=st.floats(-2.0, 2.0))
+
+
+@given(states, st.floats(0.2, 5.0), st.floats(-3.0, 3.0))
+@settings(max_examples=15, deadline=None)
+def test_the_frozen_model_is_rnea_at_its_positions_whatever_the_velocities(ur5, drawn, k, c):
+    """At the positions it was frozen at, the model is exact for any velocity and acceleration (a time
+    scaling changes those, not the positions): torque and tool speed equal Pinocchio's."""
+    q, qd, qdd = drawn
+    constraints = RobotConstraints(ur5, LIMITS, 1.0)
+    frozen = freeze(constraints, q, qd, qdd)
+    torque, velocity = modelled(frozen, q, k * qd, c * qdd)
+    np.testing.assert_allclose(torque, rnea(ur5, q, k * qd, c * qdd), atol=1e-9)
+    np.testing.assert_allclose(np.linalg.norm(velocity, axis=1), np.linalg.norm(tool_velocity(ur5, q, k * qd), axis=1),
+                               atol=1e-12)
+
+
+@given(states, arrays(float, (4, 6), elements=st.floats(-1.0, 1.0)))
+@settings(max_examples=15, deadline=None)
+def test_the_frozen_model_has_the_true_derivative_in_position(ur5, drawn, direction):
+    """The model's change along a change of position equals RNEA's and the tool velocity's, by central
+    differences (the q-terms come from computeRNEADerivatives and getFrameVelocityDerivatives)."""
+    q, qd, qdd = drawn
+    frozen = freeze(RobotConstraints(ur5, LIMITS, 1.0), q, qd, qdd)
+    step = 1e-6
+    ahead, behind = q + step * direction, q - step * direction
+    model_torque = (modelled(frozen, ahead, qd, qdd)[0] - modelled(frozen, behind, qd, qdd)[0]) / (2 * step)
+    true_torque = (rnea(ur5, ahead, qd, qdd) - rnea(ur5, behind, qd, qdd)) / (2 * step)
+    np.testing.assert_allclose(model_torque, true_torque, atol=1e-5 * np.abs(true_torque).max() + 1e-6)
+    # The model's velocity is in the tool's own axes, which turn with q: compare the speed's change.
+    model_speed = [np.linalg.norm(modelled(frozen, x, qd, qdd)[1], axis=1) for x in (ahead, behind)]
+    true_speed = [np.linalg.norm(tool_velocity(ur5, x, qd), axis=1) for x in (ahead, behind)]
+    np.testing.assert_allclose((model_speed[0] - model_speed[1]) / (2 * step),
+                               (true_speed[0] - true_speed[1]) / (2 * step), atol=1e-6)
+
+
+@pytest.mark.parametrize("torque, speed", [(True, True), (True, False), (False, True)])
+def test_the_nlp_rows_are_the_model_scaled_by_the_limits(ur5, torque, speed):
+    """The CasADi rows, mapped over points with the model's numbers as parameters (the layout the NLP
+    uses), give tau / L and |v|^2 / V^2 of the numeric model at every point, in ``row_bounds``' order."""
+    rng = np.random.default_rng(3)
+    q, qd, qdd = rng.normal(size=(3, 5, 6))
+    constraints = RobotConstraints(ur5, LIMITS if torque else None, 0.3 if speed else None)
+    frozen = freeze(constraints, q, qd, qdd)
+    shifted = q + 0.05 * rng.normal(size=q.shape), 1.7 * qd, -0.4 * qdd  # not where it was frozen
+    function = point_rows(ca, constraints, 6)
+    rows = np.array(function.map(5)(*(x.T for x in shifted), parameters(frozen)))
+    model_torque, model_velocity = modelled(frozen, *shifted)
+    expected = []
+    if torque:
+        expected.append((model_torque / LIMITS).T)
+    if speed:
+        expected.append((np.sum(model_velocity ** 2, axis=1) / 0.3 ** 2)[None])
+    np.testing.assert_allclose(rows, np.vstack(expected), rtol=1e-12, atol=1e-12)
+    low, high = row_bounds(constraints, 6)
+    assert len(low) == len(high) == rows.shape[0]
+
+
+def test_the_samples_are_the_spline_at_each_segments_points():
+    """``spline_states`` at ``sample_points`` against numpy's own polynomial evaluation."""
+    rng = np.random.default_rng(5)
+    coefficients, durations = rng.normal(size=(3, 2, 6)), rng.uniform(0.5, 2.0, 3)
+    segments, s = sample_points(np.array([0, 2]))
+    q, qd, qdd = spline_states(coefficients, durations, segments, s)
+    for p, (k, fraction) in enumerate(zip(segments, s)):
+        for j in range(2):
+            polynomial = np.polynomial.Polynomial(coefficients[k, j])
+            tau = fraction * durations[k]
+            assert (q[p, j], qd[p, j], qdd[p, j]) == pytest.approx(
+                (polynomial(tau), polynomial.deriv()(tau), polynomial.deriv(2)(tau)), rel=1e-12, abs=1e-12)
+    assert sorted(set(s)) == list(np.arange(8) / 8)
