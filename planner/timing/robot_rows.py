@@ -134,20 +134,21 @@ def freeze(constraints: RobotConstraints, q: np.ndarray, qd: np.ndarray, qdd: np
         torque_offset, torque_position = np.zeros((points, joints)), np.zeros((points, joints, joints))
         unit = np.eye(joints)
         for p in range(points):
-            dq, _, dqdd = pin.computeRNEADerivatives(model, data, q[p], qd[p], qdd[p])
-            mass[p] = dqdd
-            mass[p] = np.triu(mass[p]) + np.triu(mass[p], 1).T  # Pinocchio fills the upper triangle
+            dq, _, dqdd = (np.reshape(d, (joints, joints)) for d in
+                           pin.computeRNEADerivatives(model, data, q[p], qd[p], qdd[p]))
+            mass[p] = np.triu(dqdd) + np.triu(dqdd, 1).T  # Pinocchio fills the upper triangle
             torque_position[p] = dq
             torque_offset[p] = pin.computeGeneralizedGravity(model, data, q[p]) - dq @ q[p]
             for a in range(joints):
-                coriolis[p, a] = pin.computeCoriolisMatrix(model, data, q[p], unit[a])
+                coriolis[p, a] = np.reshape(pin.computeCoriolisMatrix(model, data, q[p], unit[a]), (joints, joints))
     if constraints.tool_speed is not None:
         speed_velocity, speed_position = np.zeros((points, 3, joints)), np.zeros((points, 3, joints))
         frame, local = robot.tool_frame_id, pin.ReferenceFrame.LOCAL
         for p in range(points):
             pin.computeForwardKinematicsDerivatives(model, data, q[p], qd[p], qdd[p])
             dv_dq, dv_dv = pin.getFrameVelocityDerivatives(model, data, frame, local)
-            speed_position[p], speed_velocity[p] = dv_dq[:3], dv_dv[:3]
+            # (one joint: the binding returns (6,) vectors, not (6, 1) matrices)
+            speed_position[p], speed_velocity[p] = (np.reshape(d, (6, joints))[:3] for d in (dv_dq, dv_dv))
         speed_offset = -np.einsum("pij,pj->pi", speed_position, q)
     return FrozenModel(q, mass, coriolis, torque_offset, torque_position, speed_velocity, speed_position,
                        speed_offset)
@@ -178,7 +179,7 @@ def true_values(constraints: RobotConstraints, q: np.ndarray, qd: np.ndarray,
         torque = np.array([pin.rnea(model, data, a, b, c) for a, b, c in zip(q, qd, qdd)]).reshape(q.shape)
     if constraints.tool_speed is not None:
         frame, local = robot.tool_frame_id, pin.ReferenceFrame.LOCAL
-        velocity = np.array([pin.computeFrameJacobian(model, data, a, frame, local)[:3] @ b
+        velocity = np.array([np.reshape(pin.computeFrameJacobian(model, data, a, frame, local), (6, -1))[:3] @ b
                              for a, b in zip(q, qd)]).reshape(len(q), 3)
     return torque, velocity
 
