@@ -37,6 +37,7 @@ import numpy as np
 import pinocchio as pin
 
 from .errors import InfeasibleError, MissingLimitError, RobotFileError, TaskError
+from .read_only import ReadOnlyArrays, freeze_arrays
 from .robot import Robot
 from .splines import PiecewisePolynomial
 
@@ -51,7 +52,7 @@ SLOW_DOWN_MARGIN = 1e-9
 
 
 @dataclass(frozen=True)
-class RobotLimitCheck:
+class RobotLimitCheck(ReadOnlyArrays):
     """Torques and tool speeds of a trajectory at its check samples.
 
     Attributes:
@@ -65,6 +66,9 @@ class RobotLimitCheck:
     torque: np.ndarray | None
     tool_speed: np.ndarray | None
     tool_angular_speed: np.ndarray | None
+
+    def __post_init__(self):
+        freeze_arrays(self)
 
 
 def check_times(trajectory: PiecewisePolynomial) -> np.ndarray:
@@ -193,7 +197,7 @@ def check_robot_limits(robot: Robot, trajectory: PiecewisePolynomial, torque_lim
 
 
 @dataclass(frozen=True)
-class RobotLimitOutcome:
+class RobotLimitOutcome(ReadOnlyArrays):
     """How a trajectory was made to meet its robot-aware limits.
 
     Attributes:
@@ -211,6 +215,9 @@ class RobotLimitOutcome:
     slow_down: float
     check: RobotLimitCheck
     uniform_total_s: float | None = None
+
+    def __post_init__(self):
+        freeze_arrays(self)
 
     def _peaks(self) -> dict[str, tuple]:
         """Each limited quantity's largest magnitude at the samples and its limit: ``torque`` ((J,) per

@@ -59,7 +59,7 @@ import pinocchio as pin
 from .analytic_ik import Solver, analytic_solver
 from .errors import IKError, InputError
 from .limits import JointLimits, in_degrees_apart, rest_to_rest_time
-from .read_only import freeze_arrays
+from .read_only import ReadOnlyArrays, freeze_arrays
 from .robot import Robot
 
 log = logging.getLogger(__name__)
@@ -103,7 +103,7 @@ _SOLVERS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 @dataclass(frozen=True)
-class IKSolution:
+class IKSolution(ReadOnlyArrays):
     """A configuration reaching a pose.
 
     Attributes:

@@ -21,7 +21,7 @@ import numpy as np
 
 from .errors import InputError
 from .limits import FEASIBILITY_TOLERANCE, LIMITED, JointLimits, in_degrees, time_scale_factor
-from .read_only import freeze_arrays
+from .read_only import ReadOnlyArrays, freeze_arrays
 from .splines import PiecewisePolynomial, derivative_coefficients, polyval, powers
 
 _IMAGINARY_TOLERANCE = 1e-7
@@ -361,7 +361,7 @@ class Violation:
 
 
 @dataclass(frozen=True)
-class KinematicFigures:
+class KinematicFigures(ReadOnlyArrays):
     """Exact per-joint figures of one trajectory, in SI units.
 
     Attributes:
@@ -406,12 +406,12 @@ class KinematicFigures:
         ratios = self.ratios(limits)
         for quantity in LIMITED:
             d = quantity.order - 1
-            for j in np.flatnonzero(ratios[d] > 1.0 + FEASIBILITY_TOLERANCE):
+            for j in np.flatnonzero(~(ratios[d] <= 1.0 + FEASIBILITY_TOLERANCE)):  # a nan figure fails too
                 found.append(Violation(limits.names[j], int(j), quantity.name, quantity.order,
                                        float(self.max_abs[d, j]), float(limits.magnitudes[d, j])))
         for side, values, bounds, outside in (("lower", self.position_min, limits.lower, -1.0),
                                               ("upper", self.position_max, limits.upper, 1.0)):
-            for j in np.flatnonzero(outside * (values - bounds) > FEASIBILITY_TOLERANCE):
+            for j in np.flatnonzero(~(outside * (values - bounds) <= FEASIBILITY_TOLERANCE)):
                 found.append(Violation(limits.names[j], int(j), "position", 0, float(values[j]), float(bounds[j]),
                                        side))
         return found

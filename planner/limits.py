@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import InputError
-from .read_only import freeze_arrays
+from .read_only import ReadOnlyArrays, freeze_arrays
 from .validate import finite_array, float_array
 
 
@@ -100,7 +100,7 @@ def _limit_vector(name: str, value, joints: int, fill: float) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class JointLimits:
+class JointLimits(ReadOnlyArrays):
     """Position range and symmetric magnitude limits per joint.
 
     Attributes:
@@ -201,8 +201,12 @@ class JointLimits:
 
     def bound_sides(self, positions: np.ndarray) -> np.ndarray:
         """(..., J) +1 / -1 where a position [rad] is on its joint's upper / lower bound (within
-        ``FEASIBILITY_TOLERANCE``), else 0."""
-        positions = np.asarray(positions, dtype=float)
+        ``FEASIBILITY_TOLERANCE``), else 0.
+
+        Raises:
+            InputError: positions that are not numbers, or not J to a row.
+        """
+        positions = self._positions(positions)
         sides = np.where(np.abs(positions - self.upper) <= FEASIBILITY_TOLERANCE, 1, 0)
         return np.where(np.abs(positions - self.lower) <= FEASIBILITY_TOLERANCE, -1, sides)
 
@@ -213,16 +217,31 @@ class JointLimits:
         range: a via-point written on a bound in other units (degrees against a URDF's radians) then
         lies exactly on it, as the optimizers assume of a via-point on a bound. Returns ``self``
         when every position is inside already."""
-        positions = np.asarray(positions, dtype=float).reshape(-1, self.joint_count)
+        positions = self._positions(positions).reshape(-1, self.joint_count)
         lower = np.minimum(self.lower, positions.min(axis=0))
         upper = np.maximum(self.upper, positions.max(axis=0))
         if np.array_equal(lower, self.lower) and np.array_equal(upper, self.upper):
             return self
         return self.with_overrides(lower=lower, upper=upper)
 
+    def _positions(self, positions) -> np.ndarray:
+        """``positions`` (..., J) [rad] as finite floats with one column per joint."""
+        array = float_array("positions", positions)
+        if array.ndim == 0 or array.shape[-1] != self.joint_count:
+            raise InputError(f"positions must have {self.joint_count} values to a row (one per joint), got shape "
+                             f"{array.shape}")
+        return finite_array("positions", array, array.ndim)
+
     def with_overrides(self, **values) -> "JointLimits":
-        """A copy with the named fields (lower, upper, velocity, acceleration, jerk, names) replaced."""
+        """A copy with the named fields (lower, upper, velocity, acceleration, jerk, names) replaced.
+
+        Raises:
+            InputError: a name that is none of these.
+        """
         fields = {name: getattr(self, name) for name in ("lower", "upper", *QUANTITIES, "names")}
+        unknown = sorted(set(values) - set(fields))
+        if unknown:
+            raise InputError(f"JointLimits has no field {unknown[0]!r}; it has: {', '.join(fields)}")
         fields.update({k: v for k, v in values.items() if v is not None})
         return JointLimits(**fields)
 

@@ -58,7 +58,7 @@ _RENAME_EXCHANGE = 2
 _AT_FDCWD = -100
 
 
-def _absolute(path, what: str) -> Path:
+def absolute_path(path, what: str) -> Path:
     """``path`` as an absolute path with symbolic links resolved; an empty path is refused.
 
     Raises:
@@ -142,7 +142,7 @@ def check_output_folder(path, *, force: bool = False) -> tuple[Path, bool]:
         OutputError: the path is empty, a file, under a file, not writable, or a
             non-empty folder the planner did not write (without ``force``).
     """
-    folder = _absolute(path, "output folder")
+    folder = absolute_path(path, "output folder")
     try:
         return _check_folder(folder, force)
     except OSError as exc:  # a name too long, an unreadable ancestor
@@ -374,7 +374,7 @@ def check_output_file(path, *, force: bool = False) -> Path:
             file, an unwritable folder, or (without ``force``) an existing file: a user's file is never
             replaced unasked.
     """
-    target = _absolute(path, "output file")
+    target = absolute_path(path, "output file")
     if os.fspath(path).endswith(tuple(filter(None, (os.sep, os.altsep)))):
         raise OutputError(f"output file {shown(os.fspath(path))} ends with a path separator, which names a folder; "
                           f"give a file name")

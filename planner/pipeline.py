@@ -18,12 +18,12 @@ import numpy as np
 from .cartesian_path import StraightPath, follow_straight_lines, tool_deviation
 from .concurrency import map_forked
 from .dynamics import RobotLimitOutcome, joint_torques, meet_robot_limits, torque_limits
-from .errors import IKError, InfeasibleError, InputError, MissingLimitError, PlannerError, TaskError
+from .errors import IKError, InfeasibleError, InputError, MissingLimitError, OutputError, PlannerError, TaskError
 from .export import coefficients_document, write_json, write_trajectory_csv
 from .ik import IKSolution, pose_from_position_quaternion, solve_waypoints
 from .kinematics import KinematicFigures, Violation, kinematic_figures
 from .limits import FEASIBILITY_TOLERANCE, LIMITED, QUANTITIES, JointLimits, in_degrees_apart
-from .outputs import output_folder
+from .outputs import absolute_path, output_folder
 from .progress import TerminalProgress
 from .recording import write_recording
 from .report import plot_profiles
@@ -191,8 +191,15 @@ class PlanResult:
 
     def write(self, folder: Path) -> None:
         """Write summary.json, trajectory.csv, coefficients.json, profiles.png and trajectory.rrd into
-        the existing ``folder`` (no atomicity of its own: ``save`` provides it)."""
-        folder = Path(folder)
+        the existing ``folder`` (no atomicity of its own: ``save`` provides it).
+
+        Raises:
+            OutputError: ``folder`` is no existing folder.
+        """
+        folder = absolute_path(folder, "the output folder")
+        if not folder.is_dir():
+            raise OutputError(f"output folder {str(folder)!r} does not exist (write needs an existing folder; save "
+                              f"creates one)")
         start = time.perf_counter()
         # Three independent writers, each holding the GIL most of its time: side by side in processes.
         map_forked(_call, [partial(self._write_recording, folder), partial(self._write_figure, folder),

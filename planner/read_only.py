@@ -26,3 +26,13 @@ def read_only(array: np.ndarray) -> np.ndarray:
     copy = np.array(array)
     copy.setflags(write=False)
     return copy
+
+
+class ReadOnlyArrays:
+    """Base of the frozen dataclasses that call ``freeze_arrays`` in ``__post_init__``: an unpickled or
+    copied instance (``pickle``, ``copy.deepcopy``) gets read-only arrays too, for NumPy does not keep
+    the flag in a copy and neither runs ``__post_init__``."""
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)  # a frozen dataclass refuses setattr, not its __dict__
+        freeze_arrays(self)

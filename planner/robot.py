@@ -32,7 +32,7 @@ from .errors import (
 )
 from .limits import LIMIT_DEG_RANGE, LIMITED, JointLimits
 from .native_output import stderr_captured
-from .validate import float_array, positive_finite
+from .validate import finite_array, float_array, positive_finite
 from .yaml_input import read_yaml
 
 #: Largest URDF file loaded [bytes]: the parser reads about 1 MB/s of XML.
@@ -104,13 +104,13 @@ class Robot:
         """``q`` as a float array of the model's nq values (Pinocchio's own error is a multi-line C++ one).
 
         Raises:
-            InputError: not numbers, or another count of values.
+            InputError: not numbers, another count of values, or one that is not finite.
         """
         q = float_array("joint positions", q)
         if q.shape != (self.model.nq,):
             raise InputError(f"joint positions must be {self.model.nq} values for robot {self.name!r}, got shape "
                              f"{q.shape}")
-        return q
+        return finite_array("joint positions", q, 1)
 
     # ------------------------------------------------------------------ construction
 

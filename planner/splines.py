@@ -23,9 +23,9 @@ from math import factorial
 import numpy as np
 from scipy.linalg import solve_banded
 
-from .errors import InputError
-from .read_only import freeze_arrays
-from .validate import finite_array, positive_durations
+from .errors import InputError, shown
+from .read_only import ReadOnlyArrays, freeze_arrays
+from .validate import finite_array, float_array, positive_durations, positive_finite
 
 #: Most samples ``PiecewisePolynomial.sample`` makes (each sample holds 4 x J floats): a cap on
 #: memory whatever the trajectory's length and the sample rate.
@@ -33,7 +33,7 @@ MAX_SAMPLES = 1_000_000
 
 
 @dataclass(frozen=True)
-class PiecewisePolynomial:
+class PiecewisePolynomial(ReadOnlyArrays):
     """A joint trajectory: one polynomial per segment and joint, in local time.
 
     Attributes:
@@ -52,14 +52,32 @@ class PiecewisePolynomial:
         if durations.ndim != 1 or coefficients.shape[0] != durations.shape[0]:
             raise InputError(
                 f"coefficients shape {coefficients.shape} does not match {durations.shape[-1]} durations")
+        if 0 in coefficients.shape:
+            raise InputError(f"coefficients must be (segments, joints, degree + 1), each at least 1, got shape "
+                             f"{coefficients.shape}")
+        knots = float_array("via_knots", self.via_knots)
+        if (knots.ndim != 1 or not np.all(knots == np.round(knots)) or knots.min(initial=0) < 0
+                or knots.max(initial=0) > durations.shape[0]):
+            raise InputError(f"via_knots must be knot indices from 0 to {durations.shape[0]} (the segment count), "
+                             f"got {shown(self.via_knots)}")
         with np.errstate(over="ignore"):
             total = durations.sum()
         if not np.isfinite(total):
             raise InputError(f"the durations sum to more than any number of seconds ({durations.max():g} s at most "
                              f"each): the total time must be finite")
+        with np.errstate(all="ignore"):  # the exact figures work on c_i h^i: they must not overflow, nor a
+            # moving joint's all vanish (a jerk of 6 over 1e-110 s would then be taken for none)
+            normalised = coefficients * durations[:, None, None] ** np.arange(coefficients.shape[2])
+        lost = (~np.isfinite(normalised).all(axis=2)
+                | (np.any(coefficients[..., 1:] != 0, axis=2) & np.all(normalised[..., 1:] == 0, axis=2)))
+        if lost.any():
+            k = int(np.argwhere(lost)[0][0])
+            raise InputError(f"segment {k}'s duration {durations[k]:.3g} s with its coefficients is beyond what "
+                             f"floating point holds (c_i h^i overflows or vanishes); give durations of a physical "
+                             f"size")
         object.__setattr__(self, "durations", durations)
         object.__setattr__(self, "coefficients", coefficients)
-        object.__setattr__(self, "via_knots", np.asarray(self.via_knots, dtype=int))
+        object.__setattr__(self, "via_knots", knots.astype(int))
         freeze_arrays(self)
 
     @property
@@ -104,7 +122,7 @@ class PiecewisePolynomial:
         """
         if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or order < 0:
             raise InputError(f"the derivative order must be a whole number >= 0, got {order!r}")
-        times = np.clip(np.atleast_1d(finite_array("times", times, np.ndim(times))), 0.0, self.total_time)
+        times = np.clip(np.atleast_1d(checked_times(times)), 0.0, self.total_time)
         knots = self.knot_times
         segment = np.clip(np.searchsorted(knots, times, side="right") - 1, 0, self.segment_count - 1)
         tau = times - knots[segment]
@@ -117,9 +135,8 @@ class PiecewisePolynomial:
         Raises:
             InputError: a rate that is not > 0, or more than ``MAX_SAMPLES`` samples.
         """
-        if isinstance(rate_hz, bool) or not isinstance(rate_hz, (int, float, np.integer, np.floating)) \
-                or not np.isfinite(rate_hz) or rate_hz <= 0:
-            raise InputError(f"sample rate must be > 0 Hz, got {rate_hz}")
+        if not positive_finite(rate_hz):
+            raise InputError(f"sample rate must be a number > 0 Hz, got {shown(rate_hz)}")
         if self.total_time * rate_hz >= MAX_SAMPLES:
             raise InputError(f"sampling the {self.total_time:.6g} s trajectory at {rate_hz:g} Hz makes "
                              f"{self.total_time * rate_hz:.3g} samples, above the cap of {MAX_SAMPLES:,}")
@@ -142,6 +159,18 @@ class PiecewisePolynomial:
     def states(self, times) -> np.ndarray:
         """(4, N, J) position [rad], velocity [rad/s], acceleration [rad/s^2] and jerk [rad/s^3] at ``times``."""
         return np.stack([self.evaluate(times, order) for order in range(4)])
+
+
+def checked_times(times) -> np.ndarray:
+    """``times`` [s] as a float array of one time or a list of them (0 or 1 dimensions), all finite.
+
+    Raises:
+        InputError: naming ``times``: not numbers, more dimensions, or a non-finite entry.
+    """
+    array = float_array("times", times)
+    if array.ndim > 1:
+        raise InputError(f"times must be one time or a list of times, got shape {array.shape}")
+    return finite_array("times", array, array.ndim)
 
 
 def derivative_coefficients(coefficients: np.ndarray, order: int) -> np.ndarray:

@@ -50,7 +50,7 @@ import numpy as np
 from .errors import SHOWN_VALUE_CHARS, InputError, SettingError, TaskError, shown
 from .ik import BRANCH_RULES
 from .limits import LIMIT_DEG_RANGE, LIMITED, PROFILE_QUANTITIES
-from .read_only import freeze_arrays
+from .read_only import ReadOnlyArrays, freeze_arrays
 from .splines import FAMILIES
 from .timing import OPTIMIZERS, SETTING_RANGES, checked_settings, setting_names
 from .timing.problem import OBJECTIVES
@@ -115,7 +115,7 @@ RANGES: dict[str, Range | type] = {
 
 
 @dataclass(frozen=True)
-class RobotAwareLimits:
+class RobotAwareLimits(ReadOnlyArrays):
     """Limits that need the robot's model, in SI units.
 
     Attributes:
@@ -139,7 +139,7 @@ class RobotAwareLimits:
 
 
 @dataclass(frozen=True)
-class CartesianWaypoint:
+class CartesianWaypoint(ReadOnlyArrays):
     """A tool pose: position [m], orientation as a unit quaternion (x, y, z, w), optional joint hint [rad]."""
 
     position: np.ndarray
@@ -151,7 +151,7 @@ class CartesianWaypoint:
 
 
 @dataclass(frozen=True)
-class IKOptions:
+class IKOptions(ReadOnlyArrays):
     """How IK picks a solution per waypoint (``ik.solve_waypoints``).
 
     Attributes:
@@ -195,7 +195,7 @@ class RobotSpec:
 
 
 @dataclass(frozen=True)
-class Task:
+class Task(ReadOnlyArrays):
     """A validated task, in SI units.
 
     Attributes:

@@ -94,10 +94,15 @@ def float_array(name: str, value) -> np.ndarray:
     """``value`` as a float array.
 
     Raises:
-        InputError: naming ``name``, for text, ragged lists or anything else that is not numbers.
+        InputError: naming ``name``, for text, booleans, None, ragged lists or anything else that is
+            not numbers (NumPy itself would read "0.5" as 0.5, None as nan and True as 1).
     """
     try:
-        return np.asarray(value, dtype=float)
+        raw = np.asarray(value)
+        if raw.dtype.kind in "USVbM" or (raw.dtype.kind == "O" and any(
+                item is None or isinstance(item, (str, bytes, bool, np.bool_)) for item in raw.flat)):
+            raise TypeError(f"got {shown(value)}")
+        return raw.astype(float)
     except (TypeError, ValueError, OverflowError) as exc:  # OverflowError: an integer beyond any float
         raise InputError(f"{name} must be numeric ({exc})") from None
 
@@ -111,10 +116,10 @@ def finite_array(name: str, value, ndim: int) -> np.ndarray:
     array = float_array(name, value)
     if array.ndim != ndim:
         raise InputError(f"{name} must have {ndim} dimension(s), got shape {array.shape}")
-    bad = np.argwhere(~np.isfinite(array))
+    bad = np.flatnonzero(~np.isfinite(array))
     if bad.size:
-        index = tuple(int(i) for i in bad[0])
-        raise InputError(f"{name}{list(index)} is {array[index]}, not a finite number")
+        index = tuple(int(i) for i in np.unravel_index(bad[0], array.shape))
+        raise InputError(f"{name}{list(index) if index else ''} is {array[index]}, not a finite number")
     return array
 
 

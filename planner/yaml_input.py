@@ -109,15 +109,18 @@ class _StrictLoader(yaml.SafeLoader):
 
     def compose_mapping_node(self, anchor):
         node = super().compose_mapping_node(anchor)
-        first: dict[tuple[str, str], yaml.Node] = {}
+        seen: dict[tuple[str, str], yaml.Node] = {}
         for key, _ in node.value:
-            if isinstance(key, yaml.ScalarNode):  # merge keys too: two << would let the second win unseen
-                earlier = first.setdefault((key.tag, key.value), key)
-                if earlier is not key:
-                    merge = " (merge several mappings with one <<: [*a, *b])" if key.value == "<<" else ""
-                    raise TaskError(_child_path(self._paths[-1], key),
-                                    f"duplicate key at {_where(key.start_mark)} (first at "
-                                    f"{_where(earlier.start_mark)}); each key may appear once in a mapping{merge}")
+            if not isinstance(key, yaml.ScalarNode):  # merge keys count too: two << would let the second win unseen
+                continue
+            earlier = seen.get((key.tag, key.value))
+            if earlier is not None:  # an alias of an earlier key is that very node: compared by value, not identity
+                merge = " (merge several mappings with one <<: [*a, *b])" if key.value == "<<" else ""
+                where = (f"(an alias of the key at {_where(key.start_mark)})" if earlier is key else
+                         f"at {_where(key.start_mark)} (first at {_where(earlier.start_mark)})")
+                raise TaskError(_child_path(self._paths[-1], key),
+                                f"duplicate key {where}; each key may appear once in a mapping{merge}")
+            seen[(key.tag, key.value)] = key
         return node
 
     def construct_object(self, node, deep=False):

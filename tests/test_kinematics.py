@@ -388,3 +388,13 @@ def test_extrema_with_a_via_point_at_the_zero_configuration_match_dense_sampling
     assert np.all(sampled >= figures.max_abs - 1e-6 * np.maximum(figures.max_abs, 1e-3 * scale))
     np.testing.assert_allclose(low, figures.position_min, rtol=1e-6, atol=1e-9)
     np.testing.assert_allclose(high, figures.position_max, rtol=1e-6, atol=1e-9)
+
+
+def test_a_figure_that_is_not_a_number_is_a_violation():
+    """nan compares false with everything: it once passed every limit as feasible."""
+    from planner.kinematics import KinematicFigures
+    nan = np.full((3, 1), np.nan)
+    figures = KinematicFigures(nan, nan, np.array([np.nan]), np.array([np.nan]), np.zeros(1), 1.0)
+    limits = JointLimits.create(1, lower=[-1.0], upper=[1.0], velocity=[1.0], acceleration=[1.0], jerk=[1.0])
+    found = figures.violations(limits)
+    assert {v.quantity for v in found} == {"velocity", "acceleration", "jerk", "position"}

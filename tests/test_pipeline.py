@@ -365,3 +365,10 @@ def test_public_calls_with_values_of_the_wrong_kind_raise_named_planner_errors(c
     with pytest.raises(planner.PlannerError) as caught:
         call()
     assert said in str(caught.value) and "\n" not in str(caught.value)
+
+
+def test_write_into_a_folder_that_does_not_exist_is_an_output_error(tmp_path):
+    result = plan(planner.make_task(joints_deg=[[0, 0], [40, -20]], limits={"velocity_deg_s": [60, 60]}))
+    with pytest.raises(planner.OutputError, match="does not exist"):
+        result.write(tmp_path / "not" / "there")
+    assert not (tmp_path / "not").exists()

@@ -21,3 +21,30 @@ def test_frozen_values_hold_read_only_arrays_and_leave_the_callers_alone():
     for array in arrays:
         with pytest.raises(ValueError, match="read-only"):
             array[..., 0] = 0.0
+
+
+def test_copies_and_unpickled_values_keep_their_arrays_read_only():
+    """NumPy does not keep the flag in a copy and neither pickle nor deepcopy runs __post_init__: a copied
+    trajectory could be given negative durations after its checks."""
+    import copy
+    import pickle
+    trajectory = get_family("hybrid").build(np.deg2rad(paper.VIA_POINTS_DEG), np.full(9, 3.0))
+    limits = paper.paper_limits()
+    for copied in (pickle.loads(pickle.dumps(trajectory)), copy.deepcopy(trajectory)):
+        np.testing.assert_array_equal(copied.coefficients, trajectory.coefficients)
+        with pytest.raises(ValueError, match="read-only"):
+            copied.durations[0] = -1.0
+    for copied_limits in (pickle.loads(pickle.dumps(limits)), copy.deepcopy(limits)):
+        with pytest.raises(ValueError, match="read-only"):
+            copied_limits.velocity[0] = 0.0
+
+
+def test_the_robot_limit_outcome_holds_read_only_arrays():
+    """Writing into the torque limits once changed the summary and a later save."""
+    from planner import make_task, plan
+    result = plan(make_task(robot={"name": "ur5", "tool_frame": "tool0"},
+                            joints_deg=[[0, -90, 90, 0, 90, 0], [30, -60, 60, 10, 80, 20]],
+                            limits={"acceleration_deg_s2": [150] * 6, "jerk_deg_s3": [600] * 6, "torque_nm": "urdf"}))
+    for array in (result.torque_limit, result.robot_limits.check.times, result.robot_limits.check.torque):
+        with pytest.raises(ValueError, match="read-only"):
+            array[0] = -1.0

@@ -8,6 +8,7 @@ import pytest
 
 from conftest import puma_dh_frames
 from planner import (
+    InputError,
     MissingLimitError,
     RobotError,
     RobotFileError,
@@ -378,3 +379,12 @@ def test_a_mimic_joint_in_the_chain_is_refused(tmp_path):
         Robot.from_urdf(urdf)
     assert caught.value.joint == "joint6"
     assert Robot.from_urdf(urdf, "link5").dof == 5  # a chain without it plans
+
+
+@pytest.mark.parametrize("q, message", [([np.nan] * 6, r"joint positions\[0\] is nan"),
+                                        ([True] * 6, "joint positions must be numeric")])
+def test_kinematics_refuse_positions_that_are_not_finite_numbers(q, message):
+    robot = Robot.from_example_robot_data("ur5", "tool0")
+    for call in (robot.forward_kinematics, robot.frame_jacobian):
+        with pytest.raises(InputError, match=message):
+            call(q)

@@ -4,7 +4,7 @@ from hypothesis import given
 from scipy.interpolate import make_interp_spline
 
 from conftest import via_and_durations
-from planner import InputError, PlannerError, get_family
+from planner import InputError, JointLimits, PlannerError, get_family
 from planner.splines import PiecewisePolynomial, hermite7
 
 
@@ -256,7 +256,25 @@ def test_bad_input_raises_clear_error(via, durations, message):
     (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate([0.1], order=-1), "order must be a whole"),
     (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate([0.1], order=1.5), "order must be a whole"),
     (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate([10**400]), "times must be numeric"),
-    (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).sample("100"), "sample rate must be > 0 Hz"),
+    (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).sample("100"), "sample rate must be a number > 0 Hz"),
+    (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).sample(2 ** 2000), "sample rate must be a number"),
+    # one time, not a list: numpy reads nan, None, text and True as numbers
+    (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate(np.nan), "times is nan, not a finite"),
+    (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate(None), "times must be numeric"),
+    (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate("0.5"), "times must be numeric"),
+    (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate(True), "times must be numeric"),
+    (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).states(np.inf), "times is inf"),
+    (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate(np.zeros((2, 2))), r"got shape \(2, 2\)"),
+    (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate([[0.1], [0.1, 0.2]]), "times must be num"),
+    (lambda via: get_family("cubic").build(via, [True, True, True, True]), "durations must be numeric"),
+    (lambda via: PiecewisePolynomial(np.ones(1), np.zeros((1, 1, 4)), [0, 5]), "via_knots must be knot indices"),
+    (lambda via: PiecewisePolynomial(np.ones(1), np.zeros((1, 1, 4)), ["a"]), "via_knots must be numeric"),
+    (lambda via: PiecewisePolynomial(np.ones(1), np.zeros((1, 0, 4)), [0, 1]), r"each at least 1, got shape"),
+    (lambda via: PiecewisePolynomial(np.zeros(0), np.zeros((0, 1, 4)), [0]), r"each at least 1, got shape"),
+    (lambda via: PiecewisePolynomial(np.array([1e-110]), np.array([[[0, 0, 0, 1.0]]]), [0, 1]), "vanishes"),
+    (lambda via: JointLimits.create(2).with_overrides(bogus=[1, 2]), "JointLimits has no field 'bogus'"),
+    (lambda via: JointLimits.create(2, lower=[0, 0], upper=[1, 1]).covering([1, 2, 3]), "2 values to a row"),
+    (lambda via: JointLimits.create(2, lower=[0, 0], upper=[1, 1]).bound_sides("ab"), "positions must be numeric"),
 ])
 def test_bad_arguments_from_python_are_input_errors(call, message):
     """The API's own checks, not numpy's ValueError or broadcasting errors."""

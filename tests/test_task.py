@@ -139,6 +139,16 @@ def test_duplicate_keys_are_refused_with_key_path_and_line(tmp_path, text, path)
     assert int(str(error).split("duplicate key at line ")[1].split(",")[0]) > 20  # the second one is named
 
 
+@pytest.mark.parametrize("text, path", [
+    ("limits: {&k jerk_deg_s3: [1], *k : [2]}\n", "limits.jerk_deg_s3"),
+    ("optimizer: {&s seed: 0, *s : 1}\n", "optimizer.seed"),
+])
+def test_a_key_repeated_through_an_alias_is_refused(tmp_path, text, path):
+    """An alias of a key is the very node of its anchor: the second value once won, unseen."""
+    task = write(tmp_path, PAPER_JOINT.read_text().replace("version: 1\n", "") + "\n" + text)
+    assert_refused(lambda: load_task(task), r"duplicate key \(an alias of the key at line \d+, column \d+\)", path)
+
+
 def test_merge_keys_may_be_overridden(tmp_path):
     text = PAPER_JOINT.read_text().replace("trajectory: {family: hybrid}",
                                            "trajectory: {<<: {family: cubic}, family: hybrid}")

@@ -11,7 +11,7 @@ from typing import Callable, Iterator
 import numpy as np
 
 from ..interrupts import check as check_interrupted
-from ..read_only import freeze_arrays
+from ..read_only import ReadOnlyArrays, freeze_arrays
 from .problem import Evaluation, TimingProblem
 
 #: progress(done, total, best_objective) -> None, called once per iteration.
@@ -45,7 +45,7 @@ class StartReport:
 
 
 @dataclass(frozen=True)
-class OptimizationResult:
+class OptimizationResult(ReadOnlyArrays):
     """Outcome of one optimizer run on a ``TimingProblem``.
 
     Attributes:
