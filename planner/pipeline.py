@@ -22,7 +22,7 @@ from .errors import IKError, InfeasibleError, InputError, MissingLimitError, Out
 from .export import coefficients_document, write_json, write_trajectory_csv
 from .ik import IKSolution, pose_from_position_quaternion, solve_waypoints
 from .kinematics import KinematicFigures, Violation, kinematic_figures
-from .limits import FEASIBILITY_TOLERANCE, LIMITED, QUANTITIES, JointLimits, in_degrees_apart
+from .limits import FEASIBILITY_TOLERANCE, LIMITED, QUANTITIES, JointLimits, in_degrees, in_degrees_apart
 from .outputs import absolute_path, output_folder
 from .progress import TerminalProgress
 from .recording import write_recording
@@ -348,6 +348,23 @@ def _check_configuration(q: np.ndarray | None, key: str, robot: Robot) -> None:
                                         f"({side} limit {limit})")
 
 
+def _outside_bounds(problem: TimingProblem, result: OptimizationResult) -> InfeasibleError:
+    """The error for a best timing that meets every limit only outside ``optimizer.bounds_s``: it names
+    the segment furthest outside, the bound, and the limit that binds there (its largest ratio)."""
+    assert problem.bounds is not None
+    low, high = problem.bounds
+    h = result.durations
+    k = int(np.argmax(h / high)) if h.max() > high else int(np.argmin(h / low))
+    side, bound = ("above h_max", high) if h[k] > high else ("below h_min", low)
+    d, j = (int(i) for i in np.unravel_index(int(np.argmax(result.ratios)), result.ratios.shape))
+    quantity, limit = QUANTITIES[d], float(problem.limits.magnitudes[d, j])
+    return InfeasibleError(f"no feasible timing found by {result.algorithm} within optimizer.bounds_s = [{low:g}, "
+                           f"{high:g}] s: meeting the limits takes segment {k} {h[k]:.4g} s, {side} = {bound:g} s, "
+                           f"with joint {problem.limits.names[j]}'s {quantity} at its limit "
+                           f"{in_degrees(limit, d + 1)}; widen the bounds or raise that limit", joint=j,
+                           quantity=quantity, value=float(result.ratios[d, j]) * limit, limit=limit)
+
+
 def _on_bound_hint(problem: TimingProblem, violations: list[Violation]) -> str:
     """Why a range may be left: via-points on a range bound, where the joint must stop, which the
     families' continuity conditions fix from the durations (and cannot make 0 at many via-points at
@@ -445,8 +462,12 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         if not result.feasible:
             found = kinematic_figures(problem.trajectory(result.durations, result.knot_states)).violations(limits)
             worst = max(found, key=lambda violation: violation.ratio, default=None)
-            raise InfeasibleError(f"no feasible timing found by {result.algorithm}: largest constraint ratio "
-                                  f"{result.max_ratio:.6g} (limit 1)" + (f"; {worst}" if worst else "")
+            if worst is None and problem.bounds is not None:
+                raise _outside_bounds(problem, result)
+            reasons = ([f"largest constraint ratio {result.max_ratio:.6g} (limit 1)"]
+                       if result.max_ratio > 1 + FEASIBILITY_TOLERANCE or worst is None else []) + \
+                ([str(worst)] if worst else [])  # a position alone leaves the ratio at 1: no word of it then
+            raise InfeasibleError(f"no feasible timing found by {result.algorithm}: {'; '.join(reasons)}"
                                   + _on_bound_hint(problem, found), violation=worst)
         return problem.trajectory(result.durations, result.knot_states), (problem, result)
 

@@ -208,6 +208,10 @@ def _quiet_rerun_logs() -> None:
     os.environ.setdefault("RUST_LOG", "off")
 
 
+#: The longest wait [s] for Rerun to encode a recording in memory (about 0.1 s for the bundled tasks).
+FLUSH_TIMEOUT_S = 600.0
+
+
 def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None:
     """Write ``result`` (a ``PlanResult``) as a Rerun recording at ``path`` (flushed and closed)."""
     _quiet_rerun_logs()  # the planner names missing meshes itself (summary.json, progress)
@@ -224,7 +228,9 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
         plot_times, plot_values = trajectory.sample(PROFILE_SAMPLES / trajectory.total_time)
     plot_index = [rr.TimeColumn("time", duration=plot_times)]
     rec = rr.RecordingStream(APPLICATION_ID, recording_id=f"{result.task.name}-{id(result)}")
-    rec.save(str(path))
+    # Into memory, then one ordinary write: Rerun's own file sink left the plan hanging for good (deaf
+    # to Ctrl-C and SIGTERM) in a flush after its writer thread died of a full disk.
+    stream = rr.binary_stream(recording=rec)
     rec.send_recording_name(result.task.name)
     rec.send_property("plan", rr.AnyValues(
         task=result.task.name, family=result.task.family, optimizer=result.optimization.algorithm,
@@ -276,10 +282,11 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
     else:
         layout = rrb.Horizontal(summary, rrb.Vertical(*plots), column_shares=[1, 2])
     rec.send_blueprint(rrb.Blueprint(layout, collapse_panels=True))
-    rec.flush()  # everything above is in the file before the end marker
+    rec.flush()  # everything above is in the stream before the end marker
     rec.log(_END, rr.AnyValues(planner_end=json.dumps(end_marker(times, rate_hz))), static=True)
-    rec.flush()
+    encoded = stream.read(flush=True, flush_timeout_sec=FLUSH_TIMEOUT_S)
     rec.disconnect()
+    Path(path).write_bytes(encoded or b"")
 
 
 @contextmanager
@@ -320,8 +327,9 @@ def _log_robot(rec, result, times: np.ndarray, positions: np.ndarray):
         if joint.name in planned:
             angles = positions[:, planned[joint.name]].tolist()
             rec.send_columns(entity, indexes=time_index, columns=joint.compute_transform_columns(angles, clamp=False))
-        else:
-            rec.log(entity, joint.compute_transform(0.0, clamp=True), static=True)
+        else:  # held where the planner's model holds it (inside its range)
+            rec.log(entity, joint.compute_transform(robot.locked_positions.get(joint.name, 0.0), clamp=False),
+                    static=True)
     root = rr.CoordinateFrame(tree.root_link().name)
     tool = np.array([robot.forward_kinematics(q).translation for q in positions])
     rec.log("scene/tool_path", rr.LineStrips3D([tool], colors=[_TOOL_PATH_COLOUR], radii=0.003), root, static=True)

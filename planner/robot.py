@@ -3,9 +3,10 @@
 A robot comes from a URDF file (with an optional ``<name>.limits.yaml`` beside
 it giving acceleration and jerk limits in degrees) or from example-robot-data
 by name. Joints that do not move the tool frame (a gripper's fingers, say)
-are locked at their neutral position with ``pinocchio.buildReducedModel``, so
-the planned joints are exactly those of the tool frame's kinematic chain, which
-must all be single-axis revolute joints (task values are in degrees).
+are locked at their neutral position (moved into their range where it lies
+outside) with ``pinocchio.buildReducedModel``, so the planned joints are
+exactly those of the tool frame's kinematic chain, which must all be
+single-axis revolute joints (task values are in degrees).
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from __future__ import annotations
 import math
 import os
 import stat
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 
@@ -61,6 +62,8 @@ class Robot:
         placeholder_velocity: joints whose URDF velocity limit is 0, which exporters write as a
             placeholder: their ``limits.velocity`` is absent (+inf) and a task must give one.
         missing_meshes: meshes the URDF names that are not found (as named): nothing is drawn for them.
+        locked_positions: where the joints that do not move the tool are held [rad or m], by name
+            (one-coordinate joints; ``_locked_configuration``).
     """
 
     name: str
@@ -73,6 +76,7 @@ class Robot:
     package_dirs: tuple[Path, ...] = ()
     placeholder_velocity: tuple[str, ...] = ()
     missing_meshes: tuple[str, ...] = ()
+    locked_positions: dict[str, float] = field(default_factory=dict)
 
     @property
     def joint_names(self) -> list[str]:
@@ -183,8 +187,9 @@ class Robot:
         parent = model.frames[_frame_id(model, tool_frame)].parentJoint
         chain = set(model.supports[parent])
         locked = [j for j in range(1, model.njoints) if j not in chain]
+        reference = _locked_configuration(model)
         try:
-            reduced = pin.buildReducedModel(model, locked, pin.neutral(model)) if locked else model
+            reduced = pin.buildReducedModel(model, locked, reference) if locked else model
         except ValueError as exc:  # names Pinocchio cannot tell apart, a link with two parent joints
             raise RobotFileError(f"cannot build the chain of robot {shown(name)} to frame {shown(tool_frame)}: "
                                  f"{_first_line(str(exc))}", path=Path(urdf_path)) from None
@@ -220,8 +225,22 @@ class Robot:
             raise RobotFileError(f"robot {shown(name)} ({urdf_path}): {exc}", path=Path(urdf_path)) from None
         placeholder = tuple(reduced.names[int(j) + 1] for j in np.flatnonzero(reduced.velocityLimit == 0))
         missing = _check_meshes(Path(urdf_path), package_dirs)
+        held = {model.names[j]: float(reference[model.joints[j].idx_q]) for j in locked if model.joints[j].nq == 1}
         return cls(name, reduced, reduced.createData(), tool_frame, _frame_id(reduced, tool_frame), limits,
-                   Path(urdf_path), package_dirs, placeholder, missing)
+                   Path(urdf_path), package_dirs, placeholder, missing, held)
+
+
+def _locked_configuration(model: pin.Model) -> np.ndarray:
+    """Where the joints that do not move the tool are held: Pinocchio's neutral configuration (0 for a
+    one-coordinate joint), moved into each such joint's range where 0 is outside it (a thumb's
+    [0.263, 1.396] rad), so the locked bodies sit where the robot can be."""
+    reference = pin.neutral(model)
+    for j in range(1, model.njoints):
+        joint = model.joints[j]
+        if joint.nq == 1:
+            i = joint.idx_q
+            reference[i] = np.clip(reference[i], model.lowerPositionLimit[i], model.upperPositionLimit[i])
+    return reference
 
 
 def _frame_id(model: pin.Model, name: str) -> int:

@@ -372,3 +372,19 @@ def test_write_into_a_folder_that_does_not_exist_is_an_output_error(tmp_path):
     with pytest.raises(planner.OutputError, match="does not exist"):
         result.write(tmp_path / "not" / "there")
     assert not (tmp_path / "not").exists()
+
+
+def test_a_family_with_free_states_outside_the_duration_bounds_names_the_bound_and_the_binding_limit():
+    """hermite7 has no up-front h_max check (its free states may meet limits the fixed rule cannot): when
+    no timing within the bounds meets the limits, the error said only "largest constraint ratio 1 (limit 1)"."""
+    task = planner.make_task(joints_deg=[[0, 0], [40, -20], [90, 10]],
+                             limits={"velocity_deg_s": [60, 60], "acceleration_deg_s2": [120, 120],
+                                     "jerk_deg_s3": [600, 600]},
+                             trajectory={"family": "hermite7"}, optimizer={"bounds_s": [0.5, 0.5]})
+    with pytest.raises(InfeasibleError, match=r"within optimizer.bounds_s = \[0.5, 0.5\] s: meeting the limits takes "
+                                              r"segment \d [0-9.]+ s, above h_max = 0.5 s, with joint joint\d's "
+                                              r"(velocity|acceleration|jerk) at its limit") as caught:
+        plan(task)
+    error = caught.value
+    assert error.quantity in ("velocity", "acceleration", "jerk") and error.joint in (0, 1)
+    assert error.value == pytest.approx(error.limit, rel=1e-6)

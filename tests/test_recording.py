@@ -776,3 +776,26 @@ def test_replay_replaces_an_existing_file_only_with_force(recording, tmp_path, c
 def test_a_recording_path_that_is_no_path_is_a_recording_error(path):
     with pytest.raises(RecordingError, match="a recording is given by its path"):
         read_recording(path)
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full (a device that is always full)")
+def test_a_full_disk_is_an_error_not_a_hang(planned):
+    """Writing to a full device raises at once (Rerun's own file sink hung for good in a flush after its
+    writer thread died of ENOSPC, deaf to Ctrl-C; the outputs' publisher names the OSError)."""
+    import errno
+    result, _ = planned
+    with pytest.raises(OSError) as caught:
+        write_recording(result, Path("/dev/full"))
+    assert caught.value.errno == errno.ENOSPC
+
+
+def test_a_robot_with_locked_joints_outside_neutral_records_without_a_warning(tmp_path):
+    """A successful --quiet plan printed Rerun's clamping warning (with a source line) to stderr."""
+    import warnings
+    result = plan({"version": 1, "robot": {"name": "allegro_right_hand", "tool_frame": "link_3.0_tip"},
+                   "waypoints": {"joints_deg": [[0, 0, 0, 0], [20, 60, 60, 60]]},
+                   "limits": {"acceleration_deg_s2": [300] * 4, "jerk_deg_s3": [3000] * 4}})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        write_recording(result, tmp_path / "r.rrd")
+    read_recording(tmp_path / "r.rrd")

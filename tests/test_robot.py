@@ -388,3 +388,16 @@ def test_kinematics_refuse_positions_that_are_not_finite_numbers(q, message):
     for call in (robot.forward_kinematics, robot.frame_jacobian):
         with pytest.raises(InputError, match=message):
             call(q)
+
+
+def test_joints_off_the_chain_are_held_inside_their_ranges():
+    """The Allegro thumb's range [0.263, 1.396] rad excludes the neutral 0: planning the index finger holds
+    it at its lower bound (Rerun clamped it there with a warning on stderr, the model held it at 0)."""
+    robot = Robot.from_example_robot_data("allegro_right_hand", "link_3.0_tip")
+    full = pin.buildModelFromUrdf(str(robot.urdf_path))
+    assert set(robot.locked_positions) == {name for name in full.names[1:] if name not in robot.joint_names}
+    for name, value in robot.locked_positions.items():
+        i = full.joints[full.getJointId(name)].idx_q
+        assert full.lowerPositionLimit[i] <= value <= full.upperPositionLimit[i]
+        assert value == np.clip(0.0, full.lowerPositionLimit[i], full.upperPositionLimit[i])
+    assert robot.locked_positions["joint_12.0"] == pytest.approx(0.263)
