@@ -473,3 +473,56 @@ def test_the_first_round_cuts_a_joint_at_rest(paper_limits):
         for order in (1, 2, 3):
             cuts = {(c.side, c.centre) for c in certificates if (c.row, c.joint, c.order) == (k, 1, order)}
             assert cuts == {(side, s) for side in (1, -1) for s in FLAT_CUTS}
+
+
+# The formulations and certificates, against independent optima and exactness (from a mutation run
+# over planner/timing/formulations.py and nlp.py).
+PAPER_VIA = np.deg2rad(paper.VIA_POINTS_DEG)
+
+def test_acceleration_only_limits_agree_with_slsqp():
+    limits = JointLimits.create(6, acceleration=np.deg2rad([45, 40, 75, 70, 90, 80]))
+    problem = TimingProblem(PAPER_VIA, "cubic", limits)
+    nlp, independent = optimize(problem, "nlp"), optimize(problem, "slsqp")
+    assert nlp.feasible and nlp.total_time <= independent.total_time * (1 + 1e-6)
+
+
+def test_quintic_paper_case_agrees_with_slsqp():
+    problem = TimingProblem(PAPER_VIA, "quintic", paper.paper_limits())
+    nlp, independent = optimize(problem, "nlp"), optimize(problem, "slsqp")
+    assert nlp.feasible and nlp.total_time <= independent.total_time * (1 + 1e-6)
+
+
+def test_a_joint_standing_still_without_higher_limits_plans():
+    limits = JointLimits.create(2, velocity=[1.0, np.inf])
+    result = optimize(TimingProblem([[0.0, 0.0], [1.0, 0.0], [0.5, 0.0]], "cubic", limits), "nlp")
+    assert result.feasible
+
+
+@pytest.mark.parametrize("family", ["hermite7", pytest.param("quintic", marks=pytest.mark.xfail(
+    strict=True, reason="the quintic's position cuts converge too slowly where the trajectory ends on a range bound "
+                        "(the end segment touches it with a fourth-order root): 2e-8 rad beyond after 12 rounds"))])
+def test_via_points_on_a_position_bound_plan_within_the_range(family):
+    """The first and last via-points of joint 1 are its range's bounds. hermite7's first round put cuts on
+    the joints without a range too, whose rows were inf - inf: IPOPT stopped at once (Invalid_Number_Detected)."""
+    lower, upper = np.full(6, -np.inf), np.full(6, np.inf)
+    lower[0], upper[0] = PAPER_VIA[:, 0].min(), PAPER_VIA[:, 0].max()
+    limits = paper.paper_limits().with_overrides(lower=lower, upper=upper)
+    problem = TimingProblem(PAPER_VIA, family, limits)
+    result = optimize(problem, "nlp")
+    assert result.feasible and all(start.status == "Solve_Succeeded" for start in result.starts)
+    trajectory = problem.trajectory(result.durations, result.knot_states)
+    positions = trajectory.evaluate(np.linspace(0.0, trajectory.total_time, 100001))[:, 0]
+    assert positions.min() >= lower[0] - 1e-9 and positions.max() <= upper[0] + 1e-9
+
+
+@pytest.mark.parametrize("q2, q3, nonnegative", [(-0.1, 1.0, False), (0.1, 1.0, True), (1.0, -0.5, True)])
+def test_touch_certificate_at_the_end_is_exact(q2, q3, nonnegative):
+    p = [q2 + q3, -2 * q2 - 3 * q3, q2 + 3 * q3, -q3]  # (1 - s)^2 (q2 + q3 (1 - s))
+    assert (min(touch_certificate(p, 1)) >= 0) == nonnegative
+
+
+@pytest.mark.parametrize("p", [[0.0, 1.0, -1.0], [0.01, 1.0, -1.0]])
+def test_quadratic_certificate_is_exact(p):
+    lams = np.linspace(0, 5, 50001)
+    rows = np.array([np.broadcast_to(r, lams.shape) for r in quadratic_certificate(p, lams)])
+    assert np.all(rows >= -1e-12, axis=0).any()

@@ -3,6 +3,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from conftest import clipped_walk
 from planner import InfeasibleError, InputError, JointLimits, SettingError, get_family, kinematic_figures, paper
 from planner.limits import FEASIBILITY_TOLERANCE, in_degrees_apart
 from planner.timing import OPTIMIZERS, TimingProblem, cuckoo_search, optimize
@@ -401,3 +402,151 @@ def test_nested_time_limits_end_at_the_earliest_deadline():
             assert remaining_time() <= 10.0
         assert remaining_time() > 9.0
     assert remaining_time() is None
+
+
+# The repair and the set-up checks, against independent computations (from a mutation run over
+# planner/timing/problem.py: each of these once let a changed line pass the suite).
+PAPER_VIA = np.deg2rad(paper.VIA_POINTS_DEG)
+
+
+
+# equal bounds are a valid (fixed) duration
+def test_equal_bounds_fix_every_duration():
+    problem = TimingProblem(PAPER_VIA, "cubic", paper.paper_limits(), bounds=(5.0, 5.0))
+    assert problem.bounds == (5.0, 5.0)
+    result = optimize(problem, "nlp")
+    assert result.feasible and np.allclose(result.durations, 5.0)
+
+
+# the errors name the right joint, quantity, value
+def test_h_max_infeasibility_names_the_worst_joint_and_quantity():
+    limits = JointLimits.create(3, velocity=[10.0] * 3, acceleration=[10.0, 10.0, 0.01])
+    via = np.array([[0.0, 0.0, 0.0], [0.1, 0.1, 0.5], [0.2, 0.0, 1.0]])
+    with pytest.raises(InfeasibleError) as caught:
+        TimingProblem(via, "cubic", limits, bounds=(0.1, 2.0))
+    error = caught.value
+    # (3, J), independent: the figures of the trajectory at h_max
+    peak = kinematic_figures(TimingProblem(via, "cubic", limits).trajectory(np.full(4, 2.0))).max_abs
+    assert (error.joint, error.quantity, error.limit) == (2, "acceleration", 0.01)
+    assert error.value == pytest.approx(peak[1, 2], rel=1e-9)
+    assert "joint3 acceleration" in str(error) and str(error).count("deg/s^2") == 2
+
+
+def test_out_of_range_via_point_error_fields():
+    limits = JointLimits.create(2, velocity=[1.0, 1.0], lower=[-1.0, -1.0], upper=[1.0, 1.0])
+    with pytest.raises(InfeasibleError) as caught:
+        TimingProblem([[0.0, 0.0], [0.5, 1.5]], "cubic", limits)
+    error = caught.value
+    assert (error.joint, error.quantity, error.value, error.limit) == (1, "position", 1.5, 1.0)
+
+
+# the repair at the minimum segment duration
+def test_raising_to_the_floor_then_scaling_up_keeps_every_limit():
+    problem = TimingProblem(PAPER_VIA, "cubic", paper.paper_limits(), min_duration=1.0)
+    x = np.array([0.9383, 0.8251, 0.0526, 0.8645, 0.0819, 0.7432, 0.2169, 0.87, 0.5644])
+    repaired = problem.evaluate(x[None])
+    assert repaired.feasible[0] and repaired.durations.min() >= 1.0 and repaired.ratios.max() <= 1 + 1e-9
+
+
+def test_time_jerk_objective_of_a_floored_repair_is_kt_t_plus_kj_e():
+    k_t, k_j = 1.0, 0.01
+    problem = TimingProblem(PAPER_VIA, "cubic", paper.paper_limits(), min_duration=1.0, objective="time-jerk",
+                            weights=(k_t, k_j))
+    x = np.full(9, 1.0)
+    x[3] = 0.05
+    repaired = problem.evaluate(x[None])
+    h = repaired.durations[0]
+    assert h.min() >= 1.0
+    energy = kinematic_figures(problem.trajectory(h)).jerk_energy.sum()
+    assert repaired.objective[0] == pytest.approx(k_t * h.sum() + k_j * energy, rel=1e-9)
+
+
+def test_floored_repair_reports_the_position_excess():
+    via, limits = clipped_walk(8, 3)
+    problem = TimingProblem(via, "cubic", limits, min_duration=0.5)
+    x = np.array([0.076, 0.766, 0.561, 0.363, 0.799, 0.338, 0.481, 0.177, 0.433])
+    repaired = problem.evaluate(x[None])
+    trajectory = problem.trajectory(repaired.durations[0])
+    positions = trajectory.evaluate(np.linspace(0, trajectory.total_time, 200001))
+    sampled = max(float(np.max(limits.lower - positions)), float(np.max(positions - limits.upper)), 0.0)
+    assert repaired.position_excess[0] == pytest.approx(sampled, rel=1e-3, abs=1e-9)
+
+
+def test_bounded_repair_reports_the_position_excess():
+    via, limits = clipped_walk(8, 3)
+    problem = TimingProblem(via, "cubic", limits, bounds=(0.2, 5.0))
+    repaired = problem.evaluate(np.full((1, problem.segment_count), 2.0))
+    trajectory = problem.trajectory(repaired.durations[0])
+    positions = trajectory.evaluate(np.linspace(0, trajectory.total_time, 200001))
+    sampled = max(float(np.max(limits.lower - positions)), float(np.max(positions - limits.upper)), 0.0)
+    assert repaired.position_excess[0] == pytest.approx(sampled, rel=1e-3, abs=1e-9)
+
+
+# time-jerk objective: unbounded repair, batches, hermite7
+def test_time_jerk_repair_objective_is_kt_t_plus_kj_e_one_at_a_time_and_in_a_batch():
+    k_t, k_j = 1.0, 0.01
+    problem = TimingProblem(PAPER_VIA, "cubic", paper.paper_limits(), objective="time-jerk", weights=(k_t, k_j))
+    batch = np.vstack((np.linspace(0.3, 1, 9), np.linspace(1, 0.3, 9)))
+    evaluated = problem.evaluate(batch)
+    for h, objective in zip(evaluated.durations, evaluated.objective):
+        energy = kinematic_figures(problem.trajectory(h)).jerk_energy.sum()
+        assert objective == pytest.approx(k_t * h.sum() + k_j * energy, rel=1e-9)
+
+
+def test_hermite7_time_jerk_plans():
+    problem = TimingProblem(PAPER_VIA, "hermite7", paper.paper_limits(), objective="time-jerk", weights=(1.0, 0.01))
+    result = optimize(problem, "nlp")
+    assert result.feasible and result.objective > result.total_time
+
+
+# repair with bounds, tightness, no-limit identity
+def test_bounded_repair_of_a_candidate_is_feasible_and_tight():
+    problem = TimingProblem(PAPER_VIA, "cubic", paper.paper_limits(), bounds=(0.5, 3.0))
+    x = np.array([1.6667, 2.5747, 1.8097, 2.8908, 2.2915, 2.7803, 2.8559, 2.5056, 0.8059])
+    repaired = problem.evaluate(x[None])
+    assert repaired.feasible[0] and repaired.ratios.max() == pytest.approx(1.0, abs=1e-9)
+    assert 0.5 <= repaired.durations.min() and repaired.durations.max() <= 3.0
+
+
+def test_one_candidate_past_h_max_does_not_make_the_whole_batch_infeasible():
+    problem = TimingProblem(PAPER_VIA, "cubic", paper.paper_limits(), bounds=(0.5, 3.0))
+    batch = np.random.default_rng(0).uniform(0.5, 3.0, (400, 9))  # some repairs end above h_max
+    together = problem.evaluate(batch)
+    assert (together.durations > 3.0 * (1 + 1e-12)).any(axis=1).any()
+    assert together.feasible[79] and problem.evaluate(batch[79][None]).feasible[0]
+
+
+def test_repair_is_tight_under_loose_limits():
+    limits = JointLimits.create(6, velocity=[100.0] * 6, acceleration=[100.0] * 6)
+    repaired = TimingProblem(PAPER_VIA, "cubic", limits).evaluate(np.linspace(0.3, 1.0, 9)[None])
+    assert repaired.ratios.max() == pytest.approx(1.0, abs=1e-9)
+
+
+def test_without_magnitude_limits_the_repair_keeps_a_candidate_inside_the_bounds():
+    problem = TimingProblem(PAPER_VIA, "cubic", JointLimits.create(6), bounds=(0.5, 3.0))
+    x = np.linspace(0.6, 2.9, 9)
+    np.testing.assert_allclose(problem.evaluate(x[None]).durations[0], x)
+
+
+def test_a_dip_below_the_lower_range_is_infeasible():
+    limits = JointLimits.create(1, velocity=[10.0], acceleration=[10.0], lower=[-0.005], upper=[2.0])
+    problem = TimingProblem([[0.0], [1.0], [0.0], [1.0]], "cubic", limits)
+    evaluated = problem.evaluate_durations(np.ones((1, 5)))
+    trajectory = problem.trajectory(evaluated.durations[0])
+    below = -0.005 - trajectory.evaluate(np.linspace(0, trajectory.total_time, 20001)).min()
+    assert below > 0 and not evaluated.feasible[0]
+    assert evaluated.position_excess[0] == pytest.approx(below, rel=1e-3)
+
+
+def test_time_objective_is_the_total_time_whatever_the_weights():
+    result = optimize(TimingProblem(PAPER_VIA, "cubic", paper.paper_limits(), weights=(2.0, 1.0)), "nlp")
+    assert result.objective == pytest.approx(result.total_time, rel=1e-12)
+
+
+@pytest.mark.parametrize("algorithm", ["nlp", "cuckoo"])
+def test_an_optimum_on_h_max_is_feasible(algorithm):
+    distance, k_t, k_j = 0.8, 2.0, 0.5  # unbounded optimum 2.88 s per segment, above h_max = 2 s
+    problem = TimingProblem([[0.0], [distance], [0.0]], "quintic", JointLimits.create(1), bounds=(0.1, 2.0),
+                            objective="time-jerk", weights=(k_t, k_j))
+    result = optimize(problem, algorithm, seed=0)
+    assert result.feasible and np.allclose(result.durations, 2.0)

@@ -351,8 +351,10 @@ class TimingNLP:
                     if everywhere and block.degree - order >= 4:
                         middle = (low + high) / 2 if np.isfinite(low + high) else 0.0
                         upper, lower = upper | (f[:, joint] >= middle), lower | (f[:, joint] < middle)
+                    bounded = {1: bool(np.isfinite(high)), -1: bool(np.isfinite(low))}  # no cut on an absent
+                    # bound (a joint without a range beside one with it): its row would be inf - inf
                     for side, near in ((1, upper), (-1, lower)):
-                        for row, c in np.argwhere(near & inside[:, joint]):
+                        for row, c in np.argwhere(near & inside[:, joint] & bounded[side]):
                             found = Certificate(b, int(row), joint, order, side, block.degree - order)
                             if found.kind == "cubic" and order == 0:
                                 segment = block.segments[row]  # joins knots segment, segment + 1
@@ -362,7 +364,7 @@ class TimingNLP:
                     if everywhere and block.degree - order >= 4:  # no extreme inside (a joint at rest): no cut
                         # would hold the quantity there, and the first solve would make it anything
                         for row in np.flatnonzero(~inside[:, joint].any(axis=-1)):
-                            for side, location in itertools.product((1, -1), FLAT_CUTS):
+                            for side, location in itertools.product([k for k in (1, -1) if bounded[k]], FLAT_CUTS):
                                 found = Certificate(b, int(row), joint, order, side, block.degree - order)
                                 changed |= _place(result, placed, found, location)
         return result, changed
