@@ -349,8 +349,9 @@ def _check_configuration(q: np.ndarray | None, key: str, robot: Robot) -> None:
 
 
 def _outside_bounds(problem: TimingProblem, result: OptimizationResult) -> InfeasibleError:
-    """The error for a best timing that meets every limit only outside ``optimizer.bounds_s``: it names
-    the segment furthest outside, the bound, and the limit that binds there (its largest ratio)."""
+    """The error for a best timing that meets every limit only outside ``optimizer.bounds_s`` (some
+    duration is outside them): it names the segment furthest outside, the bound, and the limit that
+    binds there (its largest ratio)."""
     assert problem.bounds is not None
     low, high = problem.bounds
     h = result.durations
@@ -462,7 +463,9 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         if not result.feasible:
             found = kinematic_figures(problem.trajectory(result.durations, result.knot_states)).violations(limits)
             worst = max(found, key=lambda violation: violation.ratio, default=None)
-            if worst is None and problem.bounds is not None:
+            if worst is None and problem.bounds is not None and not (
+                    problem.bounds[0] * (1 - 1e-12) <= result.durations.min()
+                    and result.durations.max() <= problem.bounds[1] * (1 + 1e-12)):
                 raise _outside_bounds(problem, result)
             reasons = ([f"largest constraint ratio {result.max_ratio:.6g} (limit 1)"]
                        if result.max_ratio > 1 + FEASIBILITY_TOLERANCE or worst is None else []) + \
