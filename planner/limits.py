@@ -175,11 +175,11 @@ class JointLimits(ReadOnlyArrays):
 
         Returns:
             (index of the position in ``positions``, "lower" or "upper", the bound [rad] it passes).
+
+        Raises:
+            InputError: positions that are not finite numbers, or not J to a row.
         """
-        positions = finite_array("positions", positions, max(np.ndim(positions), 1))
-        if positions.shape[-1] != self.joint_count:
-            raise InputError(f"positions hold {positions.shape[-1]} values per configuration, the limits are for "
-                             f"{self.joint_count} joints")
+        positions = self._positions(positions)
         for side, outside in (("lower", positions < self.lower - FEASIBILITY_TOLERANCE),
                               ("upper", positions > self.upper + FEASIBILITY_TOLERANCE)):
             hits = np.argwhere(outside)
@@ -228,8 +228,9 @@ class JointLimits(ReadOnlyArrays):
         """``positions`` (..., J) [rad] as finite floats with one column per joint."""
         array = float_array("positions", positions)
         if array.ndim == 0 or array.shape[-1] != self.joint_count:
-            raise InputError(f"positions must have {self.joint_count} values to a row (one per joint), got shape "
-                             f"{array.shape}")
+            held = f"{array.shape[-1]} values" if array.ndim else "a single value"
+            raise InputError(f"positions hold {held} per configuration; give {self.joint_count} values to a row "
+                             f"(one per joint)")
         return finite_array("positions", array, array.ndim)
 
     def with_overrides(self, **values) -> "JointLimits":

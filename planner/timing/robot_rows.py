@@ -45,12 +45,13 @@ planner then only slows the kinematic optimum down.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from math import factorial
 
 import numpy as np
 import pinocchio as pin
 
+from ..dynamics import joint_torques
 from ..robot import Robot
+from ..splines import derivative_coefficients, polyval
 
 #: Torque and tool-speed samples per segment in the NLP (module docstring).
 SAMPLES_PER_SEGMENT = 8
@@ -110,16 +111,10 @@ def spline_states(coefficients: np.ndarray, durations: np.ndarray, segments: np.
                   s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(P, J) q, q', q'' of a spline (coefficients (S, J, D+1) in local time, durations (S,) [s]) at
     normalised time ``s`` of ``segments`` (P,)."""
-    tau = s * durations[segments]
+    tau = (s * durations[segments])[:, None, None]
     local = coefficients[segments]  # (P, J, D+1)
-    degree = local.shape[-1] - 1
-    values = []
-    for order in range(3):
-        total = np.zeros(local.shape[:2])
-        for i in range(degree, order - 1, -1):
-            total = total * tau[:, None] + local[..., i] * (factorial(i) / factorial(i - order))
-        values.append(total)
-    return values[0], values[1], values[2]
+    q, qd, qdd = (polyval(derivative_coefficients(local, order), tau)[..., 0] for order in range(3))
+    return q, qd, qdd
 
 
 def freeze(constraints: RobotConstraints, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> FrozenModel:
@@ -171,16 +166,12 @@ def modelled(frozen: FrozenModel, q: np.ndarray, qd: np.ndarray,
 
 def true_values(constraints: RobotConstraints, q: np.ndarray, qd: np.ndarray,
                 qdd: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """RNEA torques (P, J) [N m] and the tool's linear velocities (P, 3) [m/s] at (P, J) q, q', q''."""
+    """RNEA torques (P, J) [N m] (``dynamics.joint_torques``) and the tool's linear velocities (P, 3)
+    [m/s] in its LOCAL frame, as the model has them (``Robot.frame_jacobian``), at (P, J) q, q', q''."""
     robot = constraints.robot
-    model, data = robot.model, robot.model.createData()
-    torque = velocity = None
-    if constraints.torque is not None:
-        torque = np.array([pin.rnea(model, data, a, b, c) for a, b, c in zip(q, qd, qdd)]).reshape(q.shape)
-    if constraints.tool_speed is not None:
-        frame, local = robot.tool_frame_id, pin.ReferenceFrame.LOCAL
-        velocity = np.array([np.reshape(pin.computeFrameJacobian(model, data, a, frame, local), (6, -1))[:3] @ b
-                             for a, b in zip(q, qd)]).reshape(len(q), 3)
+    torque = joint_torques(robot, q, qd, qdd) if constraints.torque is not None else None
+    velocity = (np.array([robot.frame_jacobian(a)[:3] @ b for a, b in zip(q, qd)]).reshape(len(q), 3)
+                if constraints.tool_speed is not None else None)
     return torque, velocity
 
 
