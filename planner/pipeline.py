@@ -537,7 +537,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
             return meet_robot_limits(robot, timed, torque, given.tool_speed, given.tool_angular_speed,
                                      timed.via_times[at_waypoints])
         trajectory, met = meet(trajectory)
-        constraints = RobotConstraints(robot, torque, given.tool_speed)
+        constraints = RobotConstraints(robot, torque, given.tool_speed, given.tool_angular_speed)
         if met.slow_down > 1 and settings["algorithm"] in ROBOT_AWARE_ALGORITHMS and constraints.supported:
             progress.note(f"slowed down {met.slow_down:.6g} times; timing again with the torque and tool-speed "
                           f"limits in the NLP")

@@ -5,15 +5,17 @@ wall time of ``--repeats`` runs after a warm-up):
 
 * ``kinematic``: the task's own limits;
 * ``torque urdf`` and ``torque halved``: ``limits.torque_nm`` the URDF's efforts, and half of them;
-* ``tool 0.25 m/s``: ``limits.tool_speed_m_s: 0.25``;
+* ``tool 0.25 m/s``: ``limits.tool_speed_m_s: 0.25``; ``tool 30 deg/s``: ``limits.tool_speed_deg_s: 30``;
 * ``binding``: acceleration and jerk limits 10 times the task's (or the robot's) and the torque
   limits 0.4 times the efforts, so that torque rather than the kinematic limits decides (with the
   efforts halved, the UR5's torques still stay within 92 % of them).
 
-For each it reports the total time, the slow-down, the planning wall time, and an independent
-dense check of the result: Pinocchio's RNEA at 1 kHz on a grid offset by half a period from the
-planner's own samples (the largest torque ratio over joints), and the tool's speed there by
-central differences of forward kinematics. With ``--toppra`` (``pip install .[bench]``) it also
+For each it reports the total time, the slow-down, the total time of slowing the kinematic optimum
+down uniformly instead (where the NLP timed the case again), the planning wall time, and an
+independent dense check of the result: Pinocchio's RNEA at 1 kHz on a grid offset by half a period
+from the planner's own samples (the largest torque ratio over joints), and the tool's linear and
+angular speeds there by central differences of forward kinematics (positions, and the rotation
+between poses through SO(3)'s log). With ``--toppra`` (``pip install .[bench]``) it also
 time-parametrizes the same geometric path (a cubic spline through the planned trajectory's
 positions at 200 Hz, in s = t / T) under the same velocity, acceleration and torque limits, and
 gives TOPP-RA's duration and wall time beside the planner's (no jerk limit there).
@@ -52,13 +54,13 @@ def cases(document: dict, kinematic) -> dict[str, dict]:
               "jerk_deg_s3": np.rad2deg(10 * kinematic.limits.jerk).tolist()}
     return {"kinematic": with_limits(), "torque urdf": with_limits(torque_nm="urdf"),
             "torque halved": with_limits(torque_nm=(efforts / 2).tolist()),
-            "tool 0.25 m/s": with_limits(tool_speed_m_s=0.25),
+            "tool 0.25 m/s": with_limits(tool_speed_m_s=0.25), "tool 30 deg/s": with_limits(tool_speed_deg_s=30),
             "binding": with_limits(torque_nm=(BINDING_EFFORTS * efforts).tolist(), **faster)}
 
 
-def dense_check(result, torque_limit: np.ndarray | None) -> tuple[float, float]:
-    """Largest torque ratio (RNEA) and tool speed [m/s] (forward-kinematics differences) at 1 kHz,
-    half a period off the planner's grid."""
+def dense_check(result, torque_limit: np.ndarray | None) -> tuple[float, float, float]:
+    """Largest torque ratio (RNEA), tool speed [m/s] and angular speed [deg/s] (forward-kinematics
+    differences) at 1 kHz, half a period off the planner's grid."""
     robot, trajectory = result.robot, result.trajectory
     times = np.arange(0.0005, trajectory.total_time, 0.001)
     q, qd, qdd = (trajectory.evaluate(times, order) for order in range(3))
@@ -68,9 +70,11 @@ def dense_check(result, torque_limit: np.ndarray | None) -> tuple[float, float]:
         torque = np.array([pin.rnea(model, data, a, b, c) for a, b, c in zip(q, qd, qdd)])
         ratio = float((np.abs(torque) / torque_limit).max())
     step = 1e-6
-    ahead = np.array([robot.forward_kinematics(a).translation for a in trajectory.evaluate(times + step)])
-    behind = np.array([robot.forward_kinematics(a).translation for a in trajectory.evaluate(times - step)])
-    return ratio, float((np.linalg.norm(ahead - behind, axis=1) / (2 * step)).max())
+    ahead = [robot.forward_kinematics(a) for a in trajectory.evaluate(times + step)]
+    behind = [robot.forward_kinematics(a) for a in trajectory.evaluate(times - step)]
+    linear = max(np.linalg.norm(a.translation - b.translation) for a, b in zip(ahead, behind)) / (2 * step)
+    angular = max(np.linalg.norm(pin.log3(a.rotation @ b.rotation.T)) for a, b in zip(ahead, behind)) / (2 * step)
+    return ratio, float(linear), float(np.degrees(angular))
 
 
 def toppra_peer(result, torque_limit: np.ndarray | None) -> tuple[float, float]:
@@ -109,8 +113,8 @@ def main() -> None:
         except ImportError:
             parser.error("--toppra needs TOPP-RA, the bench extra: pip install '.[bench]'")
     print(f"median of {args.repeats} runs in-process after a warm-up\n")
-    header = ("| task | case | total time [s] | slow-down | plan wall [s] | dense torque ratio "
-              "| dense tool speed [m/s] |")
+    header = ("| task | case | total time [s] | slow-down | uniform slow-down [s] | plan wall [s] | dense torque ratio "
+              "| dense tool speed [m/s] | dense tool speed [deg/s] |")
     if args.toppra:
         header += " TOPP-RA duration [s] | TOPP-RA wall [s] |"
     print(header)
@@ -127,10 +131,12 @@ def main() -> None:
                 walls.append(time.perf_counter() - start)
             met = result.robot_limits
             torque_limit = None if met is None else met.torque_limit
-            ratio, speed = dense_check(result, torque_limit)
+            ratio, speed, angular = dense_check(result, torque_limit)
+            uniform = None if met is None else met.uniform_total_s
             row = (f"| {task_name} | {case} | {result.trajectory.total_time:.4f} | "
-                   f"{1.0 if met is None else met.slow_down:.4f} | {statistics.median(walls):.3f} | "
-                   f"{'-' if torque_limit is None else f'{ratio:.4f}'} | {speed:.4f} |")
+                   f"{1.0 if met is None else met.slow_down:.4f} | {'-' if uniform is None else f'{uniform:.4f}'} | "
+                   f"{statistics.median(walls):.3f} | {'-' if torque_limit is None else f'{ratio:.4f}'} | "
+                   f"{speed:.4f} | {angular:.2f} |")
             if args.toppra and case.startswith("tool"):
                 row += " - | - |"  # TOPP-RA has no tool-speed constraint of its own
             elif args.toppra:

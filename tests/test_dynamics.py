@@ -90,11 +90,12 @@ def test_pendulum_torque_is_the_closed_form(tmp_path_factory, states):
     np.testing.assert_allclose(angular, np.abs(qd[:, 0]), atol=1e-12)
 
 
-@pytest.mark.parametrize("limits", [{"torque_nm": [12.0]}, {"tool_speed_m_s": 1.5}])
+@pytest.mark.parametrize("limits", [{"torque_nm": [12.0]}, {"tool_speed_m_s": 1.5}, {"tool_speed_deg_s": 80}])
 def test_a_pendulum_timed_with_its_torque_or_tip_speed_in_the_nlp_meets_the_closed_form(tmp_path, limits):
-    """One joint (the robot the planner's arrays are smallest for), its torque or tip speed binding: the
-    NLP's re-timing beats slowing down, and the closed form (tau = (I + m l^2) q'' - m g l cos q,
-    tip speed l |q'|) at 20001 points stays within the limit and reaches it."""
+    """One joint (the robot the planner's arrays are smallest for), its torque or tip speed (linear or
+    angular) binding: the NLP's re-timing beats slowing down, and the closed form (tau = (I + m l^2)
+    q'' - m g l cos q, tip speed l |q'|, angular |q'|) at 20001 points stays within the limit and
+    reaches it."""
     robot = pendulum(tmp_path, effort=20.0)
     task = {"version": 1, "name": "pendulum", "robot": {"urdf": str(robot.urdf_path), "tool_frame": "tip"},
             "waypoints": {"joints_deg": [[-90], [60], [-30], [90]]},
@@ -104,7 +105,7 @@ def test_a_pendulum_timed_with_its_torque_or_tip_speed_in_the_nlp_meets_the_clos
     times = np.linspace(0.0, result.trajectory.total_time, 20001)
     q, qd, qdd = (result.trajectory.evaluate(times, order)[:, 0] for order in range(3))
     ratio = (np.abs((0.03 + 2.0 * 0.25) * qdd - 2.0 * GRAVITY * 0.5 * np.cos(q)).max() / 12.0 if "torque_nm" in limits
-             else 0.5 * np.abs(qd).max() / 1.5)
+             else 0.5 * np.abs(qd).max() / 1.5 if "tool_speed_m_s" in limits else np.abs(qd).max() / np.deg2rad(80))
     assert 0.999 <= ratio <= 1 + 1e-6
 
 

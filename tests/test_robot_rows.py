@@ -34,11 +34,12 @@ def rnea(robot, q, qd, qdd):
     return np.array([pin.rnea(model, data, a, b, c) for a, b, c in zip(q, qd, qdd)])
 
 
-def tool_velocity(robot, q, qd):
-    """The tool origin's linear velocity in world axes: a different frame from the model's, same norm."""
+def tool_velocity(robot, q, qd, rows=slice(0, 3)):
+    """The tool origin's linear velocity (``rows`` 3:6: its angular velocity) in world axes: a different
+    frame from the model's, same norm."""
     model, data = robot.model, robot.model.createData()
     return np.array([pin.computeFrameJacobian(model, data, a, robot.tool_frame_id,
-                                              pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)[:3] @ b for a, b in zip(q, qd)])
+                                              pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)[rows] @ b for a, b in zip(q, qd)])
 
 
 states = arrays(float, (3, 4, 6), elements=st.floats(-2.0, 2.0))
@@ -50,12 +51,13 @@ def test_the_frozen_model_is_rnea_at_its_positions_whatever_the_velocities(ur5, 
     """At the positions it was frozen at, the model is exact for any velocity and acceleration (a time
     scaling changes those, not the positions): torque and tool speed equal Pinocchio's."""
     q, qd, qdd = drawn
-    constraints = RobotConstraints(ur5, LIMITS, 1.0)
+    constraints = RobotConstraints(ur5, LIMITS, 1.0, 2.0)
     frozen = freeze(constraints, q, qd, qdd)
     torque, velocity = modelled(frozen, q, k * qd, c * qdd)
     np.testing.assert_allclose(torque, rnea(ur5, q, k * qd, c * qdd), atol=1e-9)
-    np.testing.assert_allclose(np.linalg.norm(velocity, axis=1), np.linalg.norm(tool_velocity(ur5, q, k * qd), axis=1),
-                               atol=1e-12)
+    for part, rows in ((slice(0, 3), slice(0, 3)), (slice(3, 6), slice(3, 6))):  # linear, then angular
+        np.testing.assert_allclose(np.linalg.norm(velocity[:, part], axis=1),
+                                   np.linalg.norm(tool_velocity(ur5, q, k * qd, rows), axis=1), atol=1e-12)
 
 
 @given(states, arrays(float, (4, 6), elements=st.floats(-1.0, 1.0)))
@@ -64,7 +66,7 @@ def test_the_frozen_model_has_the_true_derivative_in_position(ur5, drawn, direct
     """The model's change along a change of position equals RNEA's and the tool velocity's, by central
     differences (the q-terms come from computeRNEADerivatives and getFrameVelocityDerivatives)."""
     q, qd, qdd = drawn
-    frozen = freeze(RobotConstraints(ur5, LIMITS, 1.0), q, qd, qdd)
+    frozen = freeze(RobotConstraints(ur5, LIMITS, None, 1.0), q, qd, qdd)  # the angular speed alone
     step = 1e-6
     ahead, behind = q + step * direction, q - step * direction
     model_torque = (modelled(frozen, ahead, qd, qdd)[0] - modelled(frozen, behind, qd, qdd)[0]) / (2 * step)
@@ -72,18 +74,20 @@ def test_the_frozen_model_has_the_true_derivative_in_position(ur5, drawn, direct
     np.testing.assert_allclose(model_torque, true_torque, atol=1e-5 * np.abs(true_torque).max() + 1e-6)
     # The model's velocity is in the tool's own axes, which turn with q: compare the speed's change.
     model_speed = [np.linalg.norm(modelled(frozen, x, qd, qdd)[1], axis=1) for x in (ahead, behind)]
-    true_speed = [np.linalg.norm(tool_velocity(ur5, x, qd), axis=1) for x in (ahead, behind)]
+    true_speed = [np.linalg.norm(tool_velocity(ur5, x, qd, slice(3, 6)), axis=1) for x in (ahead, behind)]
     np.testing.assert_allclose((model_speed[0] - model_speed[1]) / (2 * step),
                                (true_speed[0] - true_speed[1]) / (2 * step), atol=1e-6)
 
 
-@pytest.mark.parametrize("torque, speed", [(True, True), (True, False), (False, True)])
-def test_the_nlp_rows_are_the_model_scaled_by_the_limits(ur5, torque, speed):
+@pytest.mark.parametrize("torque, speed, angular", [(True, True, False), (True, False, False), (False, True, False),
+                                                    (False, False, True), (True, True, True)])
+def test_the_nlp_rows_are_the_model_scaled_by_the_limits(ur5, torque, speed, angular):
     """The CasADi rows, mapped over points with the model's numbers as parameters (the layout the NLP
-    uses), give tau / L and |v|^2 / V^2 of the numeric model at every point, in ``row_bounds``' order."""
+    uses), give tau / L, |v|^2 / V^2 and |w|^2 / W^2 of the numeric model at every point, in
+    ``row_bounds``' order."""
     rng = np.random.default_rng(3)
     q, qd, qdd = rng.normal(size=(3, 5, 6))
-    constraints = RobotConstraints(ur5, LIMITS if torque else None, 0.3 if speed else None)
+    constraints = RobotConstraints(ur5, LIMITS if torque else None, 0.3 if speed else None, 1.5 if angular else None)
     frozen = freeze(constraints, q, qd, qdd)
     shifted = q + 0.05 * rng.normal(size=q.shape), 1.7 * qd, -0.4 * qdd  # not where it was frozen
     function = point_rows(ca, constraints, 6)
@@ -93,7 +97,9 @@ def test_the_nlp_rows_are_the_model_scaled_by_the_limits(ur5, torque, speed):
     if torque:
         expected.append((model_torque / LIMITS).T)
     if speed:
-        expected.append((np.sum(model_velocity ** 2, axis=1) / 0.3 ** 2)[None])
+        expected.append((np.sum(model_velocity[:, :3] ** 2, axis=1) / 0.3 ** 2)[None])
+    if angular:
+        expected.append((np.sum(model_velocity[:, -3:] ** 2, axis=1) / 1.5 ** 2)[None])
     np.testing.assert_allclose(rows, np.vstack(expected), rtol=1e-12, atol=1e-12)
     low, high = row_bounds(constraints, 6)
     assert len(low) == len(high) == rows.shape[0]

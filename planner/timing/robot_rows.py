@@ -1,20 +1,21 @@
 """Joint torques and the tool's speed as constraints of the timing NLP (``nlp.py``).
 
 Neither is a polynomial of the NLP's variables: torque is Pinocchio's RNEA,
-tau(q, q', q'') = M(q) q'' + c(q, q') + g(q), and the tool's linear speed is
-|J_v(q) q'|. Each round of the NLP (``TimingNLP.solve``) therefore uses a model
+tau(q, q', q'') = M(q) q'' + c(q, q') + g(q), and the tool's linear and angular
+speeds are |J_v(q) q'| and |J_w(q) q'|. Each round of the NLP (``TimingNLP.solve``) therefore uses a model
 frozen at the previous round's trajectory, at ``SAMPLES_PER_SEGMENT`` points
 s = m / SAMPLES_PER_SEGMENT (m = 0 .. SAMPLES_PER_SEGMENT - 1) of every segment,
 at positions, velocities and accelerations (q0, v0, a0) there:
 
     tau ~ M(q0) q'' + sum_a q'_a C_a(q0) q' + g(q0) + dtau/dq (q - q0),
     v   ~ J_v(q0) q' + dv/dq (q - q0),   |v|^2 <= V^2,
+    w   ~ J_w(q0) q' + dw/dq (q - q0),   |w|^2 <= W^2,
 
 with q, q', q'' the spline's at the same point (expressions of the durations
 and knot states), C_a = C(q0, e_a) Pinocchio's Coriolis matrix for the unit
 velocity of joint a (c(q, q') = C(q, q') q' is linear in q' through C, so
-quadratic in q'), dtau/dq from ``computeRNEADerivatives`` and dv/dq from
-``getFrameVelocityDerivatives``, both exact, at (q0, v0, a0). The model is
+quadratic in q'), dtau/dq from ``computeRNEADerivatives`` and dv/dq, dw/dq from
+``getFrameVelocityDerivatives`` (the tool's twist in its LOCAL frame), all exact, at (q0, v0, a0). The model is
 exact in q' and q'' at the frozen positions (a duration change scales q' and
 q'' but keeps positions, so the first round already sees the right slow-down)
 and first-order in q. At a trajectory equal to the one it was frozen at, the
@@ -67,16 +68,31 @@ class RobotConstraints:
         robot: the robot (its Pinocchio model, its tool frame).
         torque: (J,) torque limits [N m], or None.
         tool_speed: the tool frame's largest linear speed [m/s], or None.
+        tool_angular_speed: its largest angular speed [rad/s], or None.
     """
 
     robot: Robot
     torque: np.ndarray | None
     tool_speed: float | None
+    tool_angular_speed: float | None = None
 
     @property
     def supported(self) -> bool:
         """Whether the NLP can model this robot (one coordinate per velocity) and a limit is given."""
-        return self.robot.model.nq == self.robot.model.nv and (self.torque is not None or self.tool_speed is not None)
+        return self.robot.model.nq == self.robot.model.nv and (
+            self.torque is not None or bool(self.speed_limits))
+
+    @property
+    def speed_limits(self) -> list[tuple[slice, float]]:
+        """The tool speeds limited: (rows of the tool's twist (linear 0:3, angular 3:6), limit [m/s or rad/s])."""
+        given = ((slice(0, 3), self.tool_speed), (slice(3, 6), self.tool_angular_speed))
+        return [(rows, float(limit)) for rows, limit in given if limit is not None]
+
+    @property
+    def twist_rows(self) -> np.ndarray:
+        """The rows of the tool's twist (linear 0..2, angular 3..5) the speed limits use, in their order."""
+        return np.concatenate([np.arange(6)[rows] for rows, _ in self.speed_limits]) if self.speed_limits \
+            else np.zeros(0, dtype=int)
 
 
 @dataclass(frozen=True)
@@ -87,8 +103,9 @@ class FrozenModel:
         q: (P, J) positions [rad] it was frozen at.
         mass: (P, J, J) M(q0); coriolis: (P, J, J, J) C_a(q0) indexed [point, a, row, column].
         torque_offset: (P, J) g(q0) - dtau/dq q0 [N m]; torque_position: (P, J, J) dtau/dq.
-        speed_velocity: (P, 3, J) J_v(q0); speed_position: (P, 3, J) dv/dq;
-            speed_offset: (P, 3) -dv/dq q0 [m/s]. None without a tool-speed limit.
+        speed_velocity: (P, K, J) the rows ``RobotConstraints.twist_rows`` (K = 3 or 6) of the
+            tool's Jacobian at q0; speed_position: (P, K, J) their derivatives in q;
+            speed_offset: (P, K) -speed_position q0 [m/s, rad/s]. None without a tool-speed limit.
     """
 
     q: np.ndarray
@@ -136,14 +153,15 @@ def freeze(constraints: RobotConstraints, q: np.ndarray, qd: np.ndarray, qdd: np
             torque_offset[p] = pin.computeGeneralizedGravity(model, data, q[p]) - dq @ q[p]
             for a in range(joints):
                 coriolis[p, a] = np.reshape(pin.computeCoriolisMatrix(model, data, q[p], unit[a]), (joints, joints))
-    if constraints.tool_speed is not None:
-        speed_velocity, speed_position = np.zeros((points, 3, joints)), np.zeros((points, 3, joints))
+    if constraints.speed_limits:
+        rows = constraints.twist_rows
+        speed_velocity, speed_position = np.zeros((points, len(rows), joints)), np.zeros((points, len(rows), joints))
         frame, local = robot.tool_frame_id, pin.ReferenceFrame.LOCAL
         for p in range(points):
             pin.computeForwardKinematicsDerivatives(model, data, q[p], qd[p], qdd[p])
             dv_dq, dv_dv = pin.getFrameVelocityDerivatives(model, data, frame, local)
             # (one joint: the binding returns (6,) vectors, not (6, 1) matrices)
-            speed_position[p], speed_velocity[p] = (np.reshape(d, (6, joints))[:3] for d in (dv_dq, dv_dv))
+            speed_position[p], speed_velocity[p] = (np.reshape(d, (6, joints))[rows] for d in (dv_dq, dv_dv))
         speed_offset = -np.einsum("pij,pj->pi", speed_position, q)
     return FrozenModel(q, mass, coriolis, torque_offset, torque_position, speed_velocity, speed_position,
                        speed_offset)
@@ -151,7 +169,8 @@ def freeze(constraints: RobotConstraints, q: np.ndarray, qd: np.ndarray, qdd: np
 
 def modelled(frozen: FrozenModel, q: np.ndarray, qd: np.ndarray,
              qdd: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """The model's torques (P, J) [N m] and tool velocities (P, 3) [m/s] at (P, J) q, q', q'' (numeric)."""
+    """The model's torques (P, J) [N m] and tool twists (P, K) (the rows ``twist_rows``) [m/s, rad/s] at
+    (P, J) q, q', q'' (numeric)."""
     torque = velocity = None
     if frozen.mass is not None:
         assert frozen.coriolis is not None and frozen.torque_position is not None
@@ -166,12 +185,14 @@ def modelled(frozen: FrozenModel, q: np.ndarray, qd: np.ndarray,
 
 def true_values(constraints: RobotConstraints, q: np.ndarray, qd: np.ndarray,
                 qdd: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """RNEA torques (P, J) [N m] (``dynamics.joint_torques``) and the tool's linear velocities (P, 3)
-    [m/s] in its LOCAL frame, as the model has them (``Robot.frame_jacobian``), at (P, J) q, q', q''."""
+    """RNEA torques (P, J) [N m] (``dynamics.joint_torques``) and the rows ``twist_rows`` (P, K) of the
+    tool's twist [m/s, rad/s] in its LOCAL frame, as the model has them (``Robot.frame_jacobian``), at
+    (P, J) q, q', q''."""
     robot = constraints.robot
     torque = joint_torques(robot, q, qd, qdd) if constraints.torque is not None else None
-    velocity = (np.array([robot.frame_jacobian(a)[:3] @ b for a, b in zip(q, qd)]).reshape(len(q), 3)
-                if constraints.tool_speed is not None else None)
+    rows = constraints.twist_rows
+    velocity = (np.array([robot.frame_jacobian(a)[rows] @ b for a, b in zip(q, qd)]).reshape(len(q), len(rows))
+                if constraints.speed_limits else None)
     return torque, velocity
 
 
@@ -183,8 +204,12 @@ def model_error(constraints: RobotConstraints, frozen: FrozenModel, q: np.ndarra
     gap = 0.0
     if torque is not None and model_torque is not None and constraints.torque is not None:
         gap = max(gap, float(np.max(np.abs(torque - model_torque) / constraints.torque)))
-    if velocity is not None and model_velocity is not None and constraints.tool_speed is not None:
-        gap = max(gap, float(np.max(np.linalg.norm(velocity - model_velocity, axis=1))) / constraints.tool_speed)
+    if velocity is not None and model_velocity is not None:
+        start = 0
+        for _, limit in constraints.speed_limits:
+            part = slice(start, start + 3)
+            gap = max(gap, float(np.max(np.linalg.norm(velocity[:, part] - model_velocity[:, part], axis=1))) / limit)
+            start += 3
     return gap
 
 
@@ -199,14 +224,16 @@ def parameters(frozen: FrozenModel) -> np.ndarray:
 
 def point_rows(ca, constraints: RobotConstraints, joints: int):
     """A CasADi function (q, q', q'', model) -> rows of one sample point, each to lie in ``row_bounds``:
-    tau_j / L_j, then |v|^2 / V^2 (module docstring; ``model`` is a column of ``parameters``). Built
-    once in scalar form, it is mapped over the points (``Function.map``)."""
+    tau_j / L_j, then |v|^2 / V^2 and |w|^2 / W^2 for the speeds limited (module docstring; ``model``
+    is a column of ``parameters``). Built once in scalar form, it is mapped over the points
+    (``Function.map``)."""
     q, qd, qdd = (ca.SX.sym(name, joints) for name in ("q", "qd", "qdd"))
     sizes = []
     if constraints.torque is not None:
         sizes += [joints * joints, joints ** 3, joints, joints * joints]
-    if constraints.tool_speed is not None:
-        sizes += [3 * joints, 3 * joints, 3]
+    twist = len(constraints.twist_rows)
+    if twist:
+        sizes += [twist * joints, twist * joints, twist]
     model = ca.SX.sym("model", sum(sizes))
     parts = ca.vertsplit(model, np.cumsum([0, *sizes]).tolist())
     found = []
@@ -218,10 +245,11 @@ def point_rows(ca, constraints: RobotConstraints, joints: int):
             tau += qd[a] * (ca.reshape(coriolis[a * joints * joints:(a + 1) * joints * joints], joints, joints).T @ qd)
         found.append(tau / ca.DM(np.asarray(constraints.torque, dtype=float)))
         parts = parts[4:]
-    if constraints.tool_speed is not None:
+    if twist:
         jacobian, position, offset = parts
-        velocity = ca.reshape(jacobian, joints, 3).T @ qd + ca.reshape(position, joints, 3).T @ q + offset
-        found.append(ca.sumsqr(velocity) / float(constraints.tool_speed) ** 2)
+        velocity = ca.reshape(jacobian, joints, twist).T @ qd + ca.reshape(position, joints, twist).T @ q + offset
+        for k, (_, limit) in enumerate(constraints.speed_limits):
+            found.append(ca.sumsqr(velocity[3 * k:3 * k + 3]) / limit ** 2)
     return ca.Function("robot_rows", [q, qd, qdd, model], [ca.vertcat(*found)])
 
 
@@ -231,7 +259,6 @@ def row_bounds(constraints: RobotConstraints, joints: int) -> tuple[np.ndarray, 
     if constraints.torque is not None:
         lower += [-1.0] * joints
         upper += [1.0] * joints
-    if constraints.tool_speed is not None:
-        lower.append(-np.inf)
-        upper.append(1.0)
+    lower += [-np.inf] * len(constraints.speed_limits)
+    upper += [1.0] * len(constraints.speed_limits)
     return np.array(lower), np.array(upper)
