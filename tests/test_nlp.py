@@ -526,3 +526,40 @@ def test_quadratic_certificate_is_exact(p):
     lams = np.linspace(0, 5, 50001)
     rows = np.array([np.broadcast_to(r, lams.shape) for r in quadratic_certificate(p, lams)])
     assert np.all(rows >= -1e-12, axis=0).any()
+
+
+# ------------------------------------------------------------------ programs kept for reuse
+
+def test_a_program_is_reused_for_the_same_certificates_and_gives_the_same_solution(paper_via, paper_limits):
+    """Solving again from the same start with a kept program gives the result of a fresh build."""
+    problem = TimingProblem(paper_via, "quintic", paper_limits)
+    start = optimize(problem, "nlp").durations * 1.3
+    nlp = TimingNLP(problem, start)
+    first = nlp.solve(start)
+    kept = dict(nlp._programs)
+    again = nlp.solve(start)
+    assert kept and all(nlp._programs[key] is program for key, program in kept.items())  # nothing rebuilt
+    fresh = TimingNLP(problem, start).solve(start)
+    np.testing.assert_array_equal(again.durations, first.durations)
+    np.testing.assert_allclose(again.durations, fresh.durations, rtol=1e-12)
+    assert again.iterations == first.iterations == fresh.iterations
+
+
+def test_a_kept_program_is_built_again_where_reuse_could_overrun_the_time_limit(paper_via, paper_limits, monkeypatch):
+    """IPOPT's wall-time limit counts from each solve: a program built 2 s ago under a time limit would
+    overrun it by 2 s, so it is built again; without a limit it is reused."""
+    import planner.timing.nlp as nlp_module
+    from planner.timing.result import time_limit
+
+    problem = TimingProblem(paper_via, "hybrid", paper_limits)
+    nlp = TimingNLP(problem, optimize(problem, "nlp").durations)
+    assert nlp._program([]) is nlp._program([])
+    clock = [1000.0]
+    monkeypatch.setattr(nlp_module.time, "monotonic", lambda: clock[0])
+    with time_limit(60.0):
+        limited = TimingNLP(problem, optimize(problem, "nlp").durations)
+        built = limited._program([])
+        clock[0] += 0.5
+        assert limited._program([]) is built  # within 1 s and 10 % of the 60 s
+        clock[0] += 2.0
+        assert limited._program([]) is not built
