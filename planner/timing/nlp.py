@@ -234,11 +234,19 @@ class TimingNLP:
         self.scales = Scales.of(problem.limits, reference, max_abs(coefficients, reference[None])[0])
         self.formulation = FORMULATIONS[family.name](family, problem.via_points, problem.limits, self.scales)
         self._programs: dict[tuple[Certificate, ...], _Program] = {}
+        self._blocks: list[SegmentBlock] | None = None
+        #: The caller ends solves at the time limit itself (``_solve_all``'s processes): kept programs are
+        #: reused whatever their own limit.
+        self.deadline_enforced = False
 
     @property
     def blocks(self) -> list[SegmentBlock]:
-        """The formulation's segment blocks (of the program without certificates)."""
-        return self._program([]).spline.blocks
+        """The formulation's segment blocks (those of the first program built: every program has the same
+        segments, degrees and certified orders)."""
+        if self._blocks is None:
+            self._program([])
+        assert self._blocks is not None
+        return self._blocks
 
     def solve(self, start: np.ndarray) -> NLPOutcome:
         """Solve from durations ``start`` (S,) [s], adding certificates round by round."""
@@ -430,8 +438,10 @@ class TimingNLP:
         rows)."""
         key = tuple(certificates)
         program = self._programs.pop(key, None)
-        if program is None or not program.reusable():
+        if program is None or not (self.deadline_enforced or program.reusable()):
             program = _Program(self, certificates)
+            if self._blocks is None:
+                self._blocks = program.spline.blocks
         self._programs[key] = program  # the most recently used last
         while len(self._programs) > KEPT_PROGRAMS:
             self._programs.pop(next(iter(self._programs)))
@@ -541,7 +551,7 @@ class _Program:
         self.lbg, self.ubg = np.concatenate(lower), np.concatenate(upper)
         variables = ca.vertcat(eta, spline.states, certificate_variables)
         remaining = remaining_time()  # IPOPT stops by itself at the time limit
-        self.built, self.wall_limit = time.monotonic(), remaining
+        self.wall_limit = remaining
         # Not expanded to scalar form: building that costs more than it saves, with certificates too
         # (quintic, n = 128: 15.3 s expanded, 5.9 s not; hermite7 paper case 8.3 s, 2.8 s; hybrid,
         # n = 1024, without certificates: 3.5 s, 2.2 s).
@@ -550,12 +560,13 @@ class _Program:
             options["ipopt.max_wall_time"] = max(remaining, 1e-3)
         self.solver = ca.nlpsol("timing", "ipopt", {"x": variables, "f": objective / scales.time,
                                                     "g": ca.vertcat(*rows), "p": model}, options)
+        self.built = time.monotonic()
 
 
     def reusable(self) -> bool:
         """Whether solving again keeps to the time limit: IPOPT's own limit (``max_wall_time``) counts
-        from each solve's start, so a reused program may overrun the limit by the time since it was
-        built; that time must be at most ``REUSE_OVERRUN`` of the time left then, and 1 s."""
+        from each solve's start, so a program solved again may overrun the limit by the time since it
+        was built; that time must be at most ``REUSE_OVERRUN`` of the time left then, and 1 s."""
         if self.wall_limit is None:
             return True
         since = time.monotonic() - self.built
@@ -663,7 +674,11 @@ def _solve_all(nlp: TimingNLP, starts: list[np.ndarray]) -> list[NLPOutcome]:
     processes, remaining = _processes(nlp.problem, len(starts)), remaining_time()
     if remaining is None or nlp.problem.segment_count < CONCURRENT_SEGMENTS:
         return map_forked(nlp.solve, starts, processes)
-    solved = map_forked_until(nlp.solve, starts, processes, time.monotonic() + remaining)
+    nlp.deadline_enforced = True  # each solve runs in a process ended at the limit
+    try:
+        solved = map_forked_until(nlp.solve, starts, processes, time.monotonic() + remaining)
+    finally:
+        nlp.deadline_enforced = False
     return [NLPOutcome(start, 0, 0, OUT_OF_TIME, 0) if outcome is None else outcome
             for start, outcome in zip(starts, solved)]
 
