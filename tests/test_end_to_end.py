@@ -36,12 +36,13 @@ def joint_tasks(draw) -> dict:
                  "objective": draw(st.sampled_from(["time", "time-jerk"]))}
     if optimizer["objective"] == "time-jerk":
         optimizer["weights"] = [1.0, draw(st.sampled_from([1e-4, 1e-2, 1.0]))]
-    if draw(st.booleans()):
+    min_segment = draw(st.sampled_from([1e-3, 0.05]))
+    if draw(st.booleans()):  # bounds the shortest segment fits in (else the task is refused as it should be)
         low = draw(st.floats(0.01, 2.0))
-        optimizer["bounds_s"] = [low, low * draw(st.floats(1.0, 50.0))]
+        optimizer["bounds_s"] = [low, max(low * draw(st.floats(1.0, 50.0)), min_segment)]
     return {"version": 1, "waypoints": {"joints_deg": via.tolist()}, "limits": limits,
             "trajectory": {"family": draw(st.sampled_from(["hybrid", "quintic", "cubic", "hermite7"])),
-                           "min_segment_s": draw(st.sampled_from([1e-3, 0.05]))},
+                           "min_segment_s": min_segment},
             "optimizer": optimizer}
 
 

@@ -569,3 +569,36 @@ def test_a_kept_program_is_built_again_where_reuse_could_overrun_the_time_limit(
         limited.deadline_enforced = True  # solves in processes ended at the limit: reuse whatever the clock
         clock[0] += 5.0
         assert limited._program([]) is rebuilt
+
+
+def test_a_position_range_cut_converging_from_outside_ends_inside():
+    """Quintic, positions bounded 22 deg beyond the via-points: the range binds inside a segment, where
+    only cuts hold it. They close in from outside (7.5e-9 rad beyond after 10 rounds), and no time
+    scaling mends a position: the cut keeps a margin, so the result lies inside the range, by dense
+    sampling, and is feasible."""
+    via = np.deg2rad([[-36.0, 162.0, 0.0], [1.367, 168.5, 0.0], [3.875, 110.625, 55.0], [-154.081, 0.0, 0.0]])
+    limits = JointLimits.create(3, velocity=np.deg2rad([92.1, 68.0, 8.0]), acceleration=np.deg2rad([22.0, 5.0, 5.0]),
+                                jerk=np.deg2rad([41.0, 5.0, 6.0]), lower=np.deg2rad([-176.081, -22.0, -22.0]),
+                                upper=np.deg2rad([25.875, 190.5, 77.0]))
+    problem = TimingProblem(via, "quintic", limits, min_duration=0.001)
+    result = optimize(problem, "nlp")
+    assert result.feasible
+    positions = problem.trajectory(result.durations).evaluate(np.linspace(0, result.total_time, 200001))
+    assert np.all(positions <= limits.upper) and np.all(positions >= limits.lower)
+    assert positions[:, 0].max() > limits.upper[0] - 1e-5  # the range binds
+
+
+def test_starts_that_end_out_of_a_range_fall_back_inside_it_near_their_result():
+    """Quintic, ranges 21.5 deg beyond the via-points: both starts' cut rounds end with IPOPT unsolved,
+    1.75e-5 rad outside joint 1's range. Equal durations keep the positions inside: from them the
+    planner returns a feasible result (dense sampling), on the way back to the starts' (at most
+    0.05 % above 43.1799 s, the best this case is known to reach) rather than refusing the task."""
+    via = np.deg2rad([[2.0, 0.0, 0.0], [15.0, 0.0, 1.0], [0.0, 0.0, 56.0], [-154.0, 0.0, 0.0]])
+    limits = JointLimits.create(3, velocity=np.deg2rad([16.0, 5.0, 5.0]), acceleration=np.deg2rad([7.0, 5.0, 5.0]),
+                                jerk=np.deg2rad([14.0, 5.0, 160.0]), lower=np.deg2rad([-175.5, -21.5, -21.5]),
+                                upper=np.deg2rad([36.5, 21.5, 77.5]))
+    problem = TimingProblem(via, "quintic", limits, min_duration=0.05)
+    result = optimize(problem, "nlp")
+    assert result.feasible and result.total_time <= 43.1799 * 1.0005
+    positions = problem.trajectory(result.durations).evaluate(np.linspace(0, result.total_time, 200001))
+    assert np.all(positions <= limits.upper) and np.all(positions >= limits.lower)

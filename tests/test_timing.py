@@ -206,6 +206,15 @@ def test_no_limits_and_no_bounds_is_an_error():
         TimingProblem([[0.0], [1.0]], "cubic", JointLimits.create(1))
 
 
+@pytest.mark.parametrize("step", [0.0, 6.7e-294, 1e-10])
+def test_limited_joints_that_do_not_move_are_no_limit_on_the_time(step):
+    """Only joint 1 has a limit and it moves by at most the repeat tolerance: nothing bounds the time
+    of joint 2's motion (a solve drove the durations to 1e-294 s and NumPy raised on its infs)."""
+    with pytest.raises(InputError, match=r"unbounded below \(moving without a limit: joint2\)"):
+        TimingProblem([[step, 1.0], [0.0, 0.0]], "hybrid", JointLimits.create(2, velocity=[1.0, np.inf]))
+    TimingProblem([[step, 1.0], [0.0, 0.0]], "hybrid", JointLimits.create(2, velocity=[1.0, np.inf]), bounds=(1, 2))
+
+
 def test_bad_optimizer_requests(paper_problem):
     with pytest.raises(InputError, match="unknown optimizer 'ga'"):
         optimize(paper_problem, "ga")

@@ -79,6 +79,7 @@ import numpy as np
 from ..concurrency import map_forked, map_forked_until
 from ..interrupts import check as check_interrupted
 from ..kinematics import max_abs, segment_extrema
+from ..limits import FEASIBILITY_TOLERANCE
 from ..native_output import stderr_captured
 from .formulations import FORMULATIONS, Scales, SegmentBlock
 from .problem import TimingProblem
@@ -107,6 +108,10 @@ FLAG_MARGIN = 0.05
 FLAT_CUTS = (0.25, 0.5, 0.75)
 #: A cut closer than this (normalised time) to an extreme already covers it.
 CUT_SPACING = 1e-6
+#: A position cut placed where the position was beyond its range holds it this far inside [rad]. Cuts
+#: close in on an extreme linearly (quintic, ranges: 7.5e-9 rad beyond after 10 rounds), and time scaling
+#: cannot mend a position, so without a margin the last round's result can stay a hair outside.
+POSITION_CUT_MARGIN = 1e-6
 #: Unbounded problems keep every duration above this fraction of the time scale.
 DURATION_FLOOR = 1e-6
 #: ``mumps_mem_percent``: IPOPT's default (1000) has MUMPS allocate 11 times its estimated
@@ -116,6 +121,10 @@ DURATION_FLOOR = 1e-6
 IPOPT_OPTIONS = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False, "ipopt.tol": 1e-10,
                  "ipopt.constr_viol_tol": 1e-10, "ipopt.max_iter": 500, "ipopt.mumps_mem_percent": 50}
 
+#: Random duration shapes tried where every start ends outside a position range (``_range_feasible_start``).
+RANGE_SHAPES = 50
+#: Points of each of the two grids on the way from a result out of a range to a feasible one (``_towards``).
+RETREAT_STEPS = 33
 #: Programs ``TimingNLP`` keeps for reuse, the most recently used (``TimingNLP._program``).
 KEPT_PROGRAMS = 4
 #: A kept program is solved again only if the time limit's overrun this may cause is within this fraction
@@ -144,6 +153,8 @@ class Certificate:
         degree: the degree of q^(order) on the segment.
         centre: where a cut is (None for the exact kinds).
         touch: for a touch, the end (0 or 1) where the polynomial has its double root.
+        margin: for a cut of a position that was beyond its range there, how far inside the range it
+            holds it [rad] (``POSITION_CUT_MARGIN``); 0 otherwise.
     """
 
     block: int
@@ -154,6 +165,7 @@ class Certificate:
     degree: int
     centre: float | None = None
     touch: int | None = None
+    margin: float = 0.0
 
     @property
     def kind(self) -> str:
@@ -369,6 +381,9 @@ class TimingNLP:
                     for side, near in ((1, upper), (-1, lower)):
                         for row, c in np.argwhere(near & inside[:, joint] & bounded[side]):
                             found = Certificate(b, int(row), joint, order, side, block.degree - order)
+                            beyond = side * (f[row, joint, c] - (high if side > 0 else low)) > FEASIBILITY_TOLERANCE
+                            if order == 0 and beyond and found.kind == "cut":
+                                found = replace(found, margin=POSITION_CUT_MARGIN)
                             if found.kind == "cubic" and order == 0:
                                 segment = block.segments[row]  # joins knots segment, segment + 1
                                 ends = [e for e in (0, 1) if resting[segment + e, joint] == side]
@@ -519,7 +534,7 @@ class _Program:
                 else:
                     certified = p[:1]
                 rows += certified
-                lower += [np.zeros(len(chosen))] * len(certified)
+                lower += [np.array([certificates[i].margin for i in chosen])] * len(certified)
                 upper += [np.full(len(chosen), np.inf)] * len(certified)
         model = ca.MX.zeros(0, 1)
         if nlp.robot is not None:  # the robot model's rows at every sample, its numbers the NLP's parameters
@@ -665,6 +680,45 @@ def nlp_refine(problem: TimingProblem, starts: dict[str, np.ndarray], tracker: S
         if kept and max(objectives) > min(objectives) * (1 + AGREEMENT) else None  # agreeing starts: nothing to gain
     if start is not None:
         _report(tracker, "recombined", _solve_all(nlp, list(tracker.evaluate(start[None]).durations))[0])
+    if not kept and problem.limits.has_position_range:
+        inside = _range_feasible_start(problem, tracker)
+        if inside is not None:
+            outside, _ = min(solved, key=lambda item: item[1].objective)
+            _report(tracker, "inside the ranges", _solve_all(nlp, [inside])[0])
+            _towards(problem, tracker, outside, inside)
+
+
+def _range_feasible_start(problem: TimingProblem, tracker: SearchTracker) -> np.ndarray | None:
+    """Feasible durations (S,) [s] for a problem whose starts all ended outside a position range, or None.
+
+    Positions depend on the ratios of the durations only (time scaling keeps them), so a shape whose
+    positions stay in range is feasible once repaired. Equal durations and ``RANGE_SHAPES`` random ones
+    (a fixed seed) are tried; each goes to ``tracker``, which so holds a feasible result if any is, and
+    the NLP solves once more from the best (quintic with ranges binding inside segments: cut rounds
+    that IPOPT did not solve left both starts 1.75e-5 rad outside, where equal durations fit).
+    """
+    shapes = np.vstack((np.ones(problem.segment_count),
+                        np.random.default_rng(0).uniform(0.05, 1.0, (RANGE_SHAPES, problem.segment_count))))
+    tried = tracker.evaluate(shapes)  # repaired: scaled until every magnitude holds
+    if not tried.feasible.any():
+        return None
+    return tried.durations[int(np.argmin(np.where(tried.feasible, tried.objective, np.inf)))]
+
+
+def _towards(problem: TimingProblem, tracker: SearchTracker, outside: np.ndarray, inside: np.ndarray) -> None:
+    """Offer ``tracker`` the feasible durations nearest ``outside`` (S,) [s] (a solve's result a little out
+    of a position range) on the way to the feasible ``inside`` (S,) [s]: h(l) = outside^(1 - l) inside^l,
+    repaired, for l on a grid of ``RETREAT_STEPS`` points and again, as finely, between the first
+    feasible one and the point before it."""
+    low, high = 0.0, 1.0
+    for _ in range(2):
+        steps = np.linspace(low, high, RETREAT_STEPS)
+        blend = np.log(outside)[None] * (1 - steps[:, None]) + np.log(inside)[None] * steps[:, None]
+        tried = tracker.evaluate(np.exp(blend))
+        first = int(np.argmax(tried.feasible))
+        if not tried.feasible[first] or first == 0:
+            return
+        low, high = steps[first - 1], steps[first]
 
 
 def _solve_all(nlp: TimingNLP, starts: list[np.ndarray]) -> list[NLPOutcome]:

@@ -133,6 +133,12 @@ class TimingProblem:
         if not np.isfinite(limits.magnitudes).any() and self.bounds is None:
             raise InputError("no velocity, acceleration or jerk limit and no duration bounds: "
                              "the minimum time is unbounded below")
+        moving = np.ptp(self.via_points, axis=0) > REPEAT_TOLERANCE
+        if self.bounds is None and not np.any(np.isfinite(limits.magnitudes).any(axis=0) & moving):
+            free = ", ".join(limits.names[j] for j in np.flatnonzero(moving))
+            raise InputError(f"no joint with a velocity, acceleration or jerk limit moves (by more than "
+                             f"{REPEAT_TOLERANCE:g} rad) and there are no duration bounds: the minimum time is "
+                             f"unbounded below (moving without a limit: {free})")
         self._check_via_points_in_range(limits)
         #: The limits, each position range widened to hold the via-points within tolerance of it.
         self.limits = limits.covering(self.via_points)

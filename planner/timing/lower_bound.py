@@ -1,0 +1,134 @@
+"""A lower bound on the total time of any trajectory through the via-points, whatever its family.
+
+Any motion that passes the via-points p_0 .. p_{n-1} in order, from rest to rest,
+with |q'| <= V, |q''| <= A and |q'''| <= Jk per joint, passes them at times
+0 = t_0 < t_1 < ... < t_{n-1} = T. For a pair i < k and one joint, its values
+x_i .. x_k (equal neighbours merged) turn at every strict interior extreme e: the
+joint then stops (q' = 0) somewhere between the neighbours of e, at a value at or
+beyond e, and these stops come in order. So on [t_i, t_k] the joint covers the
+pieces x_i -> e_1 -> ... -> e_r -> x_k, each at least as long as its chord, and
+
+    t_k - t_i >= w(i, k) = first(|e_1 - x_i|) + sum_s turn(|e_{s+1} - e_s|) + last(|x_k - e_r|),
+
+with each piece's shortest time under its end conditions (D [rad] its length):
+
+* between two stops (q' = 0 at both ends, q'' free there):
+  turn(D) = max(T_VA(D), (12 D / Jk)^(1/3)), T_VA(D) = 2 sqrt(D / A) if D <= V^2 / A,
+  else D / V + V / A (bang-bang acceleration, at most the velocity limit); under
+  the jerk limit alone the fastest such motion has q''' = -Jk throughout, which
+  covers Jk T^3 / 12;
+* from a passing speed (q' free, at most V) to a stop, or back: half(D) =
+  sqrt(2 D / A) if D <= V^2 / (2 A), else D / V + V / (2 A);
+* between two passing speeds: D / V;
+* where the trajectory starts or ends (q' = q'' = 0): as a stop; both ends of one
+  piece at rest: max(T_VA(D), (32 D / Jk)^(1/3)) (``limits.rest_to_rest_time``).
+
+Each piece bound holds under fewer constraints than the motion has (each drops
+some), so each is a true lower bound. Then T >= w(i, k) summed along any chain
+0 = i_0 < i_1 < ... < i_m = n - 1 of via-points, for every joint's w on each link
+separately (all joints share the times): the longest path through the pairs,
+taken over every pair from the first via-point, every pair to the last, and
+pairs at most ``WINDOW`` via-points apart (the longest chains of the others add
+nothing here that these miss, and all pairs would cost n^2).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..limits import JointLimits
+from .problem import TimingProblem
+
+#: Pairs of via-points at most this many apart are links of the chains (besides every pair from the
+#: first and to the last via-point).
+WINDOW = 32
+
+
+def _turn_to_turn(distance: np.ndarray, limits: JointLimits) -> np.ndarray:
+    """(J,) shortest time [s] over ``distance`` (J,) [rad] between two stops, accelerations free."""
+    return np.maximum(_stop_to_stop_va(distance, limits), np.cbrt(12.0 * distance / limits.jerk))
+
+
+def _stop_to_stop_va(distance: np.ndarray, limits: JointLimits) -> np.ndarray:
+    """T_VA (module docstring): velocity and acceleration limits only."""
+    v, a = limits.velocity, limits.acceleration
+    with np.errstate(invalid="ignore"):  # inf / inf and 0 inf where limits are absent: 0 s either way
+        return np.where(distance * a <= v * v, 2.0 * np.sqrt(distance / a),
+                        np.nan_to_num(distance / v + v / a, nan=0.0))
+
+
+def _passing_to_stop(distance: np.ndarray, limits: JointLimits) -> np.ndarray:
+    """half(D) (module docstring): from a passing speed of at most V to a stop."""
+    v, a = limits.velocity, limits.acceleration
+    with np.errstate(invalid="ignore"):
+        return np.where(2.0 * distance * a <= v * v, np.sqrt(2.0 * distance / a),
+                        np.nan_to_num(distance / v + v / (2.0 * a), nan=0.0))
+
+
+def _rest_to_rest(distance: np.ndarray, limits: JointLimits) -> np.ndarray:
+    """Both ends at rest (q' = q'' = 0)."""
+    return np.maximum(_stop_to_stop_va(distance, limits), np.cbrt(32.0 * distance / limits.jerk))
+
+
+def _walk(values: np.ndarray, limits: JointLimits, start_at_rest: np.ndarray, end_index: np.ndarray) -> np.ndarray:
+    """(B, K) w(0, k) (module docstring), max over joints, for each of B runs of K via-point values
+    (B, K, J) [rad] (w(0, 0) = 0); ``start_at_rest`` (B,): the run's first value is where the
+    trajectory starts; ``end_index`` (B,): the index in the run where it ends (-1: not in it)."""
+    batch, count, joints = values.shape
+    rest = np.asarray(start_at_rest, dtype=bool)[:, None]
+    anchor = values[:, 0].copy()          # the last stop, or the first value
+    stopped = np.zeros((batch, joints), dtype=bool)
+    done = np.zeros((batch, joints))      # time of the pieces before the anchor [s]
+    direction = np.zeros((batch, joints))
+    previous = values[:, 0].copy()
+    bounds = np.zeros((batch, count))
+    for k in range(1, count):
+        step = values[:, k] - previous
+        moving = step != 0
+        reverses = moving & (direction != 0) & (np.sign(step) != direction)
+        if reverses.any():  # previous was a strict extreme: a stop there
+            piece = np.abs(previous - anchor)
+            to_stop = np.where(stopped | rest, _turn_to_turn(piece, limits), _passing_to_stop(piece, limits))
+            done = np.where(reverses, done + to_stop, done)
+            stopped |= reverses
+            anchor = np.where(reverses, previous, anchor)
+        direction = np.where(moving, np.sign(step), direction)
+        previous = np.where(moving, values[:, k], previous)
+        piece = np.abs(values[:, k] - anchor)
+        at_rest = (np.asarray(end_index) == k)[:, None]
+        last = np.where(stopped, np.where(at_rest, _turn_to_turn(piece, limits), _passing_to_stop(piece, limits)),
+                        np.where(rest & at_rest, _rest_to_rest(piece, limits),
+                                 np.where(rest | at_rest, _passing_to_stop(piece, limits), piece / limits.velocity)))
+        bounds[:, k] = (done + last).max(axis=1) if joints else 0.0
+    return bounds
+
+
+def time_lower_bound(via_points: np.ndarray, limits: JointLimits) -> float:
+    """A lower bound [s] on the total time of any trajectory, of any family or none, that passes
+    ``via_points`` (n, J) [rad] in order from rest to rest within ``limits``' velocity,
+    acceleration and jerk (module docstring); ranges and duration bounds are not used."""
+    values = np.asarray(via_points, dtype=float)
+    keep = np.concatenate(([True], np.any(np.diff(values, axis=0) != 0, axis=1)))
+    values = values[keep]
+    count = len(values)
+    if count < 2:
+        return 0.0
+    last = count - 1
+    whole = _walk(np.stack((values, values[::-1])), limits, np.array([True, True]), np.array([last, last]))
+    from_first, to_last = whole[0], whole[1][::-1]  # w(0, k) at k; w(i, n - 1) at i
+    span = min(WINDOW, last) + 1
+    starts = np.arange(count)
+    windows = values[np.minimum(starts[:, None] + np.arange(span), last)]  # (n, span, J), the end repeated
+    links = _walk(windows, limits, starts == 0, last - starts)  # links[i, d] = w(i, i + d) where i + d <= last
+    longest = np.full(count, -np.inf)
+    longest[0] = 0.0
+    for i in range(last):
+        reach = min(span, count - i)
+        longest[i + 1:i + reach] = np.maximum(longest[i + 1:i + reach], longest[i] + links[i, 1:reach])
+        longest[last] = max(longest[last], longest[i] + to_last[i])
+    return float(max(longest[last], from_first[last]))
+
+
+def problem_lower_bound(problem: TimingProblem) -> float:
+    """``time_lower_bound`` of a timing problem's distinct via-points and limits [s]."""
+    return time_lower_bound(problem.via_points, problem.limits)
