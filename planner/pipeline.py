@@ -547,7 +547,17 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
                 candidate, candidate_met = meet(retimed)
             except InfeasibleError:  # its path (the spline's shape changed) needs more than a limit to hold still
                 candidate = None
-            if candidate is not None and candidate.total_time < trajectory.total_time:
+            # The new durations reshape the spline between via-points: its positions may leave a range, and in
+            # linear mode the tool the straight lines, where the kinematic optimum's did not. Then it is not kept.
+            keeps_path = candidate is not None and not kinematic_figures(candidate).violations(limits)
+            if keeps_path and path is not None and task.path.mode == "linear":
+                assert poses is not None and candidate is not None
+                *_, distance, angle = tool_deviation(robot, candidate, poses, path.waypoint_via)
+                keeps_path = bool(np.all(distance <= task.path.tolerance_m)
+                                  and np.all(angle <= task.path.tolerance_rad))
+                if keeps_path:
+                    path = replace(path, max_distance_m=distance, max_angle_rad=angle)
+            if keeps_path and candidate is not None and candidate.total_time < trajectory.total_time:
                 trajectory, met = candidate, replace(candidate_met, uniform_total_s=trajectory.total_time)
         check_slowed_bounds(trajectory.durations, settings["bounds"], met)
         if met.uniform_total_s is not None:
