@@ -577,7 +577,6 @@ class _Program:
                                                     "g": ca.vertcat(*rows), "p": model}, options)
         self.built = time.monotonic()
 
-
     def reusable(self) -> bool:
         """Whether solving again keeps to the time limit: IPOPT's own limit (``max_wall_time``) counts
         from each solve's start, so a program solved again may overrun the limit by the time since it
