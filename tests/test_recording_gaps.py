@@ -182,27 +182,35 @@ def test_a_malformed_sample_is_an_error_naming_the_file_the_time_and_the_value(t
     assert np.isfinite(positions[7][0])
 
 
-def test_samples_without_scalars_are_an_error_naming_the_file_and_the_part(tmp_path):
+def handmade_recording(path, trajectory, limits, times, columns) -> None:
+    """A recording laid out as the planner's (definition, samples, end marker), its samples ``columns``
+    at ``times`` [s] written by Rerun directly."""
     import json
 
     import rerun as rr
 
-    from planner.errors import RecordingError
-    from planner.recording import end_marker, read_recording
-    path, times, _ = write_recording_like_planner(tmp_path / "r.rrd")
-    recorded = read_recording(path)
-    bad = tmp_path / "bad.rrd"
+    from planner.recording import end_marker, trajectory_definition
     rec = rr.RecordingStream("planner")
-    rec.save(str(bad))
-    from planner.recording import trajectory_definition
-    rec.log("trajectory/definition", rr.AnyValues(planner_definition=json.dumps(trajectory_definition(
-        recorded.trajectory, recorded.limits, ["shoulder", "elbow"]))), static=True)
-    rec.send_columns("trajectory/samples", indexes=[rr.TimeColumn("time", duration=times)],
-                     columns=rr.AnyValues.columns(something=times))
+    rec.save(str(path))
+    rec.log("trajectory/definition", rr.AnyValues(planner_definition=json.dumps(
+        trajectory_definition(trajectory, limits, ["shoulder", "elbow"]))), static=True)
+    rec.send_columns("trajectory/samples", indexes=[rr.TimeColumn("time", duration=times)], columns=columns)
     rec.flush()
     rec.log("trajectory/end", rr.AnyValues(planner_end=json.dumps(end_marker(times, 50.0))), static=True)
     rec.flush()
     rec.disconnect()
+
+
+def test_samples_without_scalars_are_an_error_naming_the_file_and_the_part(tmp_path):
+
+    import rerun as rr
+
+    from planner.errors import RecordingError
+    from planner.recording import read_recording
+    path, times, _ = write_recording_like_planner(tmp_path / "r.rrd")
+    recorded = read_recording(path)
+    bad = tmp_path / "bad.rrd"
+    handmade_recording(bad, recorded.trajectory, recorded.limits, times, rr.AnyValues.columns(something=times))
     with pytest.raises(RecordingError, match=r"trajectory/samples: holds no Scalars:scalars column$") as raised:
         read_recording(bad)
     assert str(raised.value).startswith(f"{bad}: trajectory/samples: ")
@@ -232,28 +240,18 @@ def test_a_urdf_rerun_cannot_read_is_a_recording_error_naming_it(tmp_path, monke
 def test_samples_cut_short_with_a_matching_end_marker_are_refused(tmp_path, keep):
     """Samples of only part of the trajectory (from 0.5 s, or up to 3 s) whose end marker describes exactly
     those samples: the span is checked against the trajectory's own [0, T], so the recording is refused."""
-    import json
 
     import rerun as rr
 
     from planner import JointLimits, get_family
     from planner.errors import RecordingError
-    from planner.recording import end_marker, read_recording, trajectory_definition
+    from planner.recording import read_recording
     trajectory = get_family("cubic").build([[0.0, 0.0], [0.5, -1.0], [1.0, 0.5]], [1.0, 1.0, 1.0, 1.0])
     limits = JointLimits.create(2, lower=[-3.0, -3.0], velocity=[5.0, 5.0], jerk=[100.0, 100.0])
     times, values = trajectory.sample(50.0)
     times, positions = times[keep], values[0][keep]
     path = tmp_path / "r.rrd"
-    rec = rr.RecordingStream("planner")
-    rec.save(str(path))
-    rec.log("trajectory/definition", rr.AnyValues(planner_definition=json.dumps(
-        trajectory_definition(trajectory, limits, ["shoulder", "elbow"]))), static=True)
-    rec.send_columns("trajectory/samples", indexes=[rr.TimeColumn("time", duration=times)],
-                     columns=rr.Scalars.columns(scalars=positions))
-    rec.flush()
-    rec.log("trajectory/end", rr.AnyValues(planner_end=json.dumps(end_marker(times, 50.0))), static=True)
-    rec.flush()
-    rec.disconnect()
+    handmade_recording(path, trajectory, limits, times, rr.Scalars.columns(scalars=positions))
     with pytest.raises(RecordingError,
                        match=r"trajectory/end: time_span_s \[.*\] is not the trajectory's \[0, 4\.0\] s"):
         read_recording(path)
