@@ -1,4 +1,4 @@
-"""Tests for behaviour of planner.export that no existing test checks (mutation testing, )."""
+"""Tests for behaviour of planner.export that no existing test checks (found by mutation testing)."""
 import csv
 import json
 import os

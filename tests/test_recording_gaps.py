@@ -1,4 +1,4 @@
-"""Tests for behaviour of planner.recording that no existing test checks (mutation testing, )."""
+"""Tests for behaviour of planner.recording that no existing test checks (found by mutation testing)."""
 import subprocess
 import sys
 import time

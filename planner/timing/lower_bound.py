@@ -21,7 +21,7 @@ with each piece's shortest time under its end conditions (D [rad] its length):
   sqrt(2 D / A) if D <= V^2 / (2 A), else D / V + V / (2 A);
 * between two passing speeds: D / V;
 * where the trajectory starts or ends (q' = q'' = 0): as a stop; both ends of one
-  piece at rest: max(T_VA(D), (32 D / Jk)^(1/3)) (``limits.rest_to_rest_time``).
+  piece at rest: max(T_VA(D), (32 D / Jk)^(1/3)).
 
 Each piece bound holds under fewer constraints than the motion has (each drops
 some), so each is a true lower bound. Then T >= w(i, k) summed along any chain
@@ -37,7 +37,6 @@ from __future__ import annotations
 import numpy as np
 
 from ..limits import JointLimits
-from .problem import TimingProblem
 
 #: Pairs of via-points at most this many apart are links of the chains (besides every pair from the
 #: first and to the last via-point).
@@ -127,8 +126,3 @@ def time_lower_bound(via_points: np.ndarray, limits: JointLimits) -> float:
         longest[i + 1:i + reach] = np.maximum(longest[i + 1:i + reach], longest[i] + links[i, 1:reach])
         longest[last] = max(longest[last], longest[i] + to_last[i])
     return float(max(longest[last], from_first[last]))
-
-
-def problem_lower_bound(problem: TimingProblem) -> float:
-    """``time_lower_bound`` of a timing problem's distinct via-points and limits [s]."""
-    return time_lower_bound(problem.via_points, problem.limits)
