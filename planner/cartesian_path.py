@@ -36,7 +36,7 @@ import numpy as np
 import pinocchio as pin
 
 from .errors import IKError, TaskError
-from .ik import solve_pose
+from .ik import nearest_turn, solve_pose
 from .robot import Robot
 from .splines import PiecewisePolynomial
 from .task import MAX_VIA_POINTS
@@ -220,27 +220,86 @@ def _why_not_followed(robot: Robot, before: np.ndarray, after: np.ndarray) -> st
 
 def _insert(robot: Robot, poses: list[pin.SE3], segment: int, local: int, fractions: list[float],
             configurations: list[np.ndarray], distance: float, angle: float) -> None:
-    """Insert the pose halfway between poses ``local`` and ``local + 1`` of ``segment``."""
+    """Insert the pose halfway between poses ``local`` and ``local + 1`` of ``segment``.
+
+    Raises:
+        IKError: the poses are already ``MIN_FRACTION`` close, the line leaves the workspace there,
+            or the joint motion jumps there (``_check_continuous``).
+    """
     low, high = fractions[local], fractions[local + 1]
-    u = (low + high) / 2
-    target = interpolate_pose(poses[segment], poses[segment + 1], u)
-    where = (f"path segment {segment} (waypoint {segment} -> {segment + 1}) at fraction {u:.4g}, "
-             f"position [{', '.join(f'{x:.4f}' for x in target.translation)}] m")
     before, after = configurations[local], configurations[local + 1]
     if high - low < 2 * MIN_FRACTION:
-        raise IKError(f"{where}: the tool strays {1e3 * distance:.3g} mm and {np.rad2deg(angle):.3g} deg from "
-                      f"the straight line however close the poses; {_why_not_followed(robot, before, after)}",
-                      waypoint=segment)
-    best = solve_pose(robot, target, (before + after) / 2)
-    for seed in (before, after):
-        if best.residual <= 1e-9:
-            break
+        raise IKError(f"{_where(poses, segment, (low + high) / 2)}: the tool strays {1e3 * distance:.3g} mm and "
+                      f"{np.rad2deg(angle):.3g} deg from the straight line however close the poses; "
+                      f"{_why_not_followed(robot, before, after)}", waypoint=segment)
+    q = _pose_between(robot, poses, segment, low, high, before, after)
+    _check_continuous(robot, poses, segment, (low, (low + high) / 2, high), (before, q, after))
+    fractions.insert(local + 1, (low + high) / 2)
+    configurations.insert(local + 1, q)
+
+
+def _where(poses: list[pin.SE3], segment: int, u: float) -> str:
+    """The segment, the fraction ``u`` along it and the position there, in words."""
+    target = interpolate_pose(poses[segment], poses[segment + 1], u)
+    return (f"path segment {segment} (waypoint {segment} -> {segment + 1}) at fraction {u:.4g}, "
+            f"position [{', '.join(f'{x:.4f}' for x in target.translation)}] m")
+
+
+def _pose_between(robot: Robot, poses: list[pin.SE3], segment: int, low: float, high: float,
+                  before: np.ndarray, after: np.ndarray) -> np.ndarray:
+    """The configuration [rad] of the pose halfway between fractions ``low`` and ``high`` of
+    ``segment``, whose neighbours are ``before`` and ``after``: IK from their mean, on the 2 pi turns
+    nearest it. Where that fails, or lands farther from the mean than the neighbours are apart
+    (another branch), IK from each neighbour too, keeping the solution nearest the mean.
+
+    Raises:
+        IKError: no configuration reaches the pose (the line leaves the reachable workspace).
+    """
+    target = interpolate_pose(poses[segment], poses[segment + 1], (low + high) / 2)
+    middle = (before + after) / 2
+    span = np.abs(after - before).max()
+    found = []
+    for seed in (middle, before, after):
         solution = solve_pose(robot, target, seed)
-        if solution.residual < best.residual:
-            best = solution
-    if best.residual > 1e-9:
-        raise IKError(f"{where}: the straight line leaves the reachable workspace (best residual "
-                      f"{best.position_error:.3g} m, {np.rad2deg(best.orientation_error):.3g} deg)",
-                      waypoint=segment, residual=best.residual)
-    fractions.insert(local + 1, u)
-    configurations.insert(local + 1, best.q)
+        q = nearest_turn(robot, solution.q, middle)
+        found.append((solution.residual > 1e-9, np.abs(q - middle).max(), solution.residual, q, solution))
+        if solution.residual <= 1e-9 and found[-1][1] <= span:
+            break
+    failed, _, residual, q, best = min(found, key=lambda option: option[:3])
+    if failed:
+        raise IKError(f"{_where(poses, segment, (low + high) / 2)}: the straight line leaves the reachable workspace "
+                      f"(best residual {best.position_error:.3g} m, {np.rad2deg(best.orientation_error):.3g} deg)",
+                      waypoint=segment, residual=residual)
+    return q
+
+
+#: A half interval keeping more than this fraction of its interval's joint change marks a possible jump.
+CONCENTRATED = 0.75
+
+
+def _check_continuous(robot: Robot, poses: list[pin.SE3], segment: int, fractions: tuple[float, float, float],
+                      configurations: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:
+    """Refuse a joint motion that jumps between two poses of ``segment``.
+
+    A continuous motion's change between two poses shrinks with their distance: halving the
+    interval halves it. Where one half keeps more than ``CONCENTRATED`` of the interval's change
+    (larger than ``JUMP_RAD``), that half is bisected again by IK alone, down to ``MIN_FRACTION``:
+    if the change is still larger than ``JUMP_RAD`` there, the motion jumps (a singularity on the
+    line, a wrist flip, another branch) and no timing can follow it. Near, not at, a singularity the
+    change eventually splits, and the segment is timed as usual.
+
+    Raises:
+        IKError: naming the segment, the fraction and the position, and the joint that jumps.
+    """
+    (low, mid, high), (before, q, after) = fractions, configurations
+    while True:
+        change = np.abs(after - before).max()
+        halves = ((low, mid, before, q), (mid, high, q, after))
+        low, high, before, after = max(halves, key=lambda half: np.abs(half[3] - half[2]).max())
+        if change <= JUMP_RAD or np.abs(after - before).max() <= CONCENTRATED * change:
+            return
+        if high - low < MIN_FRACTION:
+            raise IKError(f"{_where(poses, segment, (low + high) / 2)}: no joint motion follows the straight line "
+                          f"there: {_why_not_followed(robot, before, after)}", waypoint=segment)
+        mid = (low + high) / 2
+        q = _pose_between(robot, poses, segment, low, high, before, after)

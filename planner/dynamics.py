@@ -2,7 +2,9 @@
 
 Joint torques come from Pinocchio's recursive Newton-Euler algorithm,
 tau = M(q) q'' + C(q, q') q' + g(q) (``pinocchio.rnea``; rigid bodies as the
-URDF's ``<inertial>`` give them, no motor inertia or friction); the tool's
+URDF's ``<inertial>`` give them, plus the rotor inertia Pinocchio's model holds,
+``model.armature``, on M's diagonal: zero from a URDF, set by example-robot-data
+from some robots' SRDF; no friction); the tool's
 linear and angular speeds from its frame Jacobian, |J_v(q) q'| and |J_w(q) q'|
 (``Robot.frame_jacobian``). Neither is a polynomial in time, so both are checked
 at samples, not exactly: at ``SAMPLE_RATE_HZ`` and at least
@@ -204,6 +206,8 @@ class RobotLimitOutcome(ReadOnlyArrays):
         torque_limit: (J,) [N m], tool_speed [m/s], tool_angular_speed [rad/s]: the limits (None: not given).
         slow_down: the factor k >= 1 every duration was multiplied by (1: none needed).
         check: the torques and tool speeds of the final trajectory at its samples.
+        kinematic_total_s: the total time [s] of the trajectory the robot-aware limits were checked
+            on, before they lengthened it (the kinematic optimum's).
         uniform_total_s: where the NLP timed the trajectory again with these limits as constraints
             (``timing.robot_rows``) and that was faster, the total time [s] slowing the kinematic
             optimum down took instead (the slow-down is then the re-timed trajectory's); else None.
@@ -214,6 +218,7 @@ class RobotLimitOutcome(ReadOnlyArrays):
     tool_angular_speed: float | None
     slow_down: float
     check: RobotLimitCheck
+    kinematic_total_s: float
     uniform_total_s: float | None = None
 
     def __post_init__(self):
@@ -241,7 +246,8 @@ class RobotLimitOutcome(ReadOnlyArrays):
         """The largest |torque| per joint [N m] and its ratio to the limit, and the largest tool
         speeds and their ratios (for the limits given), the slow-down, whether the NLP timed the
         trajectory again with these limits (and then the uniform slow-down's total time) and the sampling."""
-        figures: dict[str, object] = {"slow_down": self.slow_down, "retimed_in_nlp": self.uniform_total_s is not None,
+        figures: dict[str, object] = {"slow_down": self.slow_down, "kinematic_total_time_s": self.kinematic_total_s,
+                                      "retimed_in_nlp": self.uniform_total_s is not None,
                                       "uniform_slow_down_total_time_s": self.uniform_total_s,
                                       "samples": len(self.check.times),
                                       "sampling": f"{SAMPLE_RATE_HZ:g} Hz, at least {MIN_SAMPLES_PER_SEGMENT} per "
@@ -275,6 +281,7 @@ def meet_robot_limits(robot: Robot, trajectory: PiecewisePolynomial, torque_limi
             the joint, the torque, the limit and the nearest waypoint.
     """
     check = check_robot_limits(robot, trajectory, torque_limit, tool_speed, tool_angular_speed)
+    kinematic_total = trajectory.total_time
     factor = 1.0
     if torque_limit is not None:
         assert check.torque is not None
@@ -297,4 +304,4 @@ def meet_robot_limits(robot: Robot, trajectory: PiecewisePolynomial, torque_limi
         trajectory = slowed(trajectory, factor)  # the same samples, slowed: the scaling law holds at each
         check = check_robot_limits(robot, trajectory, torque_limit, tool_speed, tool_angular_speed,
                                    np.minimum(check.times * factor, trajectory.total_time))
-    return trajectory, RobotLimitOutcome(torque_limit, tool_speed, tool_angular_speed, factor, check)
+    return trajectory, RobotLimitOutcome(torque_limit, tool_speed, tool_angular_speed, factor, check, kinematic_total)

@@ -259,12 +259,17 @@ def _centring_step(jacobian: np.ndarray, error: np.ndarray, gradient: np.ndarray
     return correction, null @ z
 
 
-def _nearest_turn(robot: Robot, q: np.ndarray, reference: np.ndarray) -> np.ndarray:
-    """Shift revolute joints by multiples of 2 pi towards ``reference``, staying within range."""
-    turns = np.round((reference - q) / (2 * np.pi))
-    shifted = q + 2 * np.pi * turns
-    inside = (shifted >= robot.limits.lower) & (shifted <= robot.limits.upper)
-    return np.where(inside & robot.revolute, shifted, q)
+def nearest_turn(robot: Robot, q: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """``q`` [rad] with each revolute joint shifted by the multiple of 2 pi that brings it nearest to
+    ``reference`` within its range: |q_j + 2 pi k - r_j| is convex in k, so the in-range optimum is
+    the unconstrained k = round((r_j - q_j) / 2 pi) clipped to the turns k_min..k_max that stay in
+    range. A joint that no turn puts in range keeps its value."""
+    lower, upper = robot.limits.lower, robot.limits.upper
+    with np.errstate(invalid="ignore"):  # an unbounded side leaves its k unbounded (inf / 2 pi)
+        fewest = np.ceil((lower - q) / (2 * np.pi) - 1e-12)
+        most = np.floor((upper - q) / (2 * np.pi) + 1e-12)
+    turns = np.clip(np.round((reference - q) / (2 * np.pi)), fewest, most)
+    return np.where(robot.revolute & (fewest <= most), q + 2 * np.pi * turns, q)
 
 
 def _finite_ranges(robot: Robot) -> tuple[np.ndarray, np.ndarray]:
@@ -556,8 +561,8 @@ def _continuous_branch(robot, poses, hints, start, limits, rng, restarts, accept
             assert best is not None  # at least one attempt
             raise _unreached(robot, limits, index, attempts, best, accept)
         distinct = [s for i, s in enumerate(found) if _distinct(robot, s.q, found[:i])]
-        chosen = min(distinct, key=lambda s: np.linalg.norm(_nearest_turn(robot, s.q, previous) - previous))
-        q = _nearest_turn(robot, chosen.q, previous) if hint is None else chosen.q
+        chosen = min(distinct, key=lambda s: np.linalg.norm(nearest_turn(robot, s.q, previous) - previous))
+        q = nearest_turn(robot, chosen.q, previous) if hint is None else chosen.q
         jump = float(np.linalg.norm(q - previous)) if index else 0.0
         which = next(i for i, s in enumerate(distinct) if s is chosen)
         solutions.append(IKSolution(q, chosen.position_error, chosen.orientation_error, chosen.iterations,

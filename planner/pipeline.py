@@ -158,6 +158,9 @@ class PlanResult:
                              "tool_frame": self.robot.tool_frame, "missing_meshes": list(self.robot.missing_meshes)}}
         if self.robot_limits is not None:
             summary["robot_limits"] = self.robot_limits.summary()
+            if self.robot_limits.torque_limit is not None:
+                assert self.robot is not None
+                summary["robot_limits"]["rotor_inertia_kg_m2"] = self.robot.model.armature.tolist()
         if self.ik is not None:
             summary["ik"] = {"branch": self.task.ik.branch, "sequence_kept": self.branch_kept,
                              "timed_sequences_s": self.branch_times, "waypoints": [
@@ -257,11 +260,18 @@ def check_sample_count(task: Task, total_time: float, *, lower_bound: bool = Fal
     what = "at least" if lower_bound else "the"
     samples = (f"{task.sample_rate_hz:g} Hz over {what} {total_time:.6g} s of trajectory makes {count:.3g} samples "
                f"per output, above the cap of {MAX_SAMPLES:,}")
-    if slowed is None or slowed.slow_down <= 1:
+    if slowed is None or total_time <= slowed.kinematic_total_s:
         raise TaskError("trajectory.sample_rate_hz", f"{samples}; lower the rate or check the limits and duration "
                                                      f"bounds (they make the trajectory this long)")
-    raise TaskError(_binding_limit(slowed), f"slows the trajectory down {slowed.slow_down:.4g} times to meet it: "
-                                            f"{samples} (trajectory.sample_rate_hz); raise the limit or lower the rate")
+    raise TaskError(_binding_limit(slowed), f"{_lengthening(slowed, total_time)}: {samples} "
+                                            f"(trajectory.sample_rate_hz); raise the limit or lower the rate")
+
+
+def _lengthening(slowed: RobotLimitOutcome, total_time: float) -> str:
+    """How much the robot-aware limits lengthened the trajectory to ``total_time`` [s], in words."""
+    kinematic = slowed.kinematic_total_s
+    return (f"makes the trajectory {total_time:.4g} s long to meet it, {total_time / kinematic:.4g} times the "
+            f"{kinematic:.4g} s the kinematic limits allow")
 
 
 def _binding_limit(slowed: RobotLimitOutcome) -> str:
@@ -278,11 +288,13 @@ def check_slowed_bounds(durations: np.ndarray, bounds: tuple[float, float] | Non
     Raises:
         TaskError: naming the robot-aware limit that set the slow-down, the segment and ``optimizer.bounds_s``.
     """
-    if bounds is None or slowed.slow_down <= 1 or durations.max() <= bounds[1] * (1 + FEASIBILITY_TOLERANCE):
+    total = float(durations.sum())
+    if (bounds is None or durations.max() <= bounds[1] * (1 + FEASIBILITY_TOLERANCE)
+            or total <= slowed.kinematic_total_s):
         return
     k = int(np.argmax(durations))
-    raise TaskError(_binding_limit(slowed), f"slows the trajectory down {slowed.slow_down:.4g} times to meet it, "
-                                            f"which makes segment {k} {durations[k]:.4g} s long, above the "
+    raise TaskError(_binding_limit(slowed), f"{_lengthening(slowed, total)}, and segment {k} "
+                                            f"{durations[k]:.4g} s long, above the "
                                             f"duration bound h_max = {bounds[1]:g} s (optimizer.bounds_s): raise "
                                             f"h_max or the limit")
 
@@ -558,7 +570,8 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
                 if keeps_path:
                     path = replace(path, max_distance_m=distance, max_angle_rad=angle)
             if keeps_path and candidate is not None and candidate.total_time < trajectory.total_time:
-                trajectory, met = candidate, replace(candidate_met, uniform_total_s=trajectory.total_time)
+                trajectory, met = candidate, replace(candidate_met, uniform_total_s=trajectory.total_time,
+                                                     kinematic_total_s=met.kinematic_total_s)
         check_slowed_bounds(trajectory.durations, settings["bounds"], met)
         if met.uniform_total_s is not None:
             progress.note(f"timed with the torque and tool-speed limits: {trajectory.total_time:.6g} s, where slowing "

@@ -184,7 +184,7 @@ def plan_summary(result) -> str:
         "",
         f"**robot** {_markdown_text(robot.name) if robot is not None else 'none (joint space)'} · "
         f"**family** {_markdown_text(result.task.family)} · "
-        f"**optimizer** {_markdown_text(result.optimization.algorithm)}"
+        f"**optimizer** {_markdown_text(optimizer_name(result))}"
         f" · **total time** {result.trajectory.total_time:.4f} s",
         "",
         "| largest ratio | " + " | ".join(QUANTITIES) + " |",
@@ -194,6 +194,13 @@ def plan_summary(result) -> str:
         "",
         "Plots in degrees; dashed lines: each joint's limits, in its colour.",
     ])
+
+
+def optimizer_name(result) -> str:
+    """The algorithm the task asked for, and the one whose result was kept where they differ
+    (``default`` runs several): ``default (cuckoo)``."""
+    requested, kept = result.task.optimizer["algorithm"], result.optimization.algorithm
+    return kept if requested == kept else f"{requested} ({kept})"
 
 
 def _markdown_text(text: str) -> str:
@@ -233,7 +240,7 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
     stream = rr.binary_stream(recording=rec)
     rec.send_recording_name(result.task.name)
     rec.send_property("plan", rr.AnyValues(
-        task=result.task.name, family=result.task.family, optimizer=result.optimization.algorithm,
+        task=result.task.name, family=result.task.family, optimizer=optimizer_name(result),
         total_time_s=trajectory.total_time, feasible=bool(result.optimization.feasible),
         joints=", ".join(names)))
     definition = trajectory_definition(trajectory, result.limits, names)

@@ -30,6 +30,8 @@ from .validate import finite_array, float_array, positive_durations, positive_fi
 #: Most samples ``PiecewisePolynomial.sample`` makes (each sample holds 4 x J floats): a cap on
 #: memory whatever the trajectory's length and the sample rate.
 MAX_SAMPLES = 1_000_000
+#: Largest gap [rad] a built spline may leave, by rounding, at a via-point or between two segments.
+BUILD_TOLERANCE = 1e-6
 
 
 @dataclass(frozen=True)
@@ -262,7 +264,31 @@ class SplineFamily:
         if not np.all(np.isfinite(coefficients)):
             raise InputError(f"durations from {h.min():.3g} to {h.max():.3g} s overflow the {self.name} spline's "
                              f"coefficients (not finite numbers); give durations of a physical size")
-        return PiecewisePolynomial(h, coefficients, self.via_knots(via.shape[0]))
+        knots = self.via_knots(via.shape[0])
+        self._check_passes(via, h, coefficients, knots)
+        return PiecewisePolynomial(h, coefficients, knots)
+
+    def _check_passes(self, via: np.ndarray, h: np.ndarray, coefficients: np.ndarray, knots: np.ndarray) -> None:
+        """Refuse coefficients (S, J, D+1) that rounding has parted from the via-points (n, J) [rad] or
+        broken apart at a knot by more than ``BUILD_TOLERANCE``: each segment's start c_0 and end
+        sum_i c_i h^i are compared with the via-point at its knot and with the next segment's start.
+
+        Raises:
+            InputError: naming the knot, the joint, the gap and the durations' spread.
+        """
+        with np.errstate(all="ignore"):
+            ends = np.einsum("sjd,sd->sj", coefficients, powers(h, coefficients.shape[2]))
+        positions = np.concatenate((coefficients[:, :, 0], ends[-1:]))  # (S+1, J) the start of each knot
+        gaps = np.concatenate((np.abs(positions[knots] - via).ravel(), np.abs(ends[:-1] - positions[1:-1]).ravel()))
+        worst = int(np.argmax(gaps))
+        if not gaps[worst] <= BUILD_TOLERANCE:
+            on_via = worst < via.size
+            knot = int(knots[worst // via.shape[1]]) if on_via else worst // via.shape[1] - len(knots) + 1
+            what = "misses its via-point" if on_via else "breaks apart"
+            raise InputError(f"the {self.name} spline built from durations {h.min():.3g} to {h.max():.3g} s "
+                             f"{what} at knot {knot}, joint {worst % via.shape[1]}, by {gaps[worst]:.3g} rad "
+                             f"(rounding: the durations are too far apart for floating point); give "
+                             f"durations of a physical size")
 
     def build_batch(self, via_points, durations) -> np.ndarray:
         """Coefficients (B, S, J, D+1) for a batch of duration vectors (B, S) [s]."""

@@ -124,7 +124,8 @@ def finite_array(name: str, value, ndim: int) -> np.ndarray:
 
 
 def positive_durations(name: str, value, count: int | None = None) -> np.ndarray:
-    """Durations [s] as a (S,) or (B, S) array, finite and > 0, with S == ``count`` if given."""
+    """Durations [s] as a (S,) or (B, S) array, finite and > 0, with S == ``count`` if given, each one
+    large enough to move its knot time t_k = h_0 + .. + h_(k-1) in floating point."""
     array = float_array(name, value)
     array = finite_array(name, array, array.ndim if array.ndim in (1, 2) else 1)
     if count is not None and array.shape[-1] != count:
@@ -133,6 +134,15 @@ def positive_durations(name: str, value, count: int | None = None) -> np.ndarray
     if bad.size:
         index = tuple(int(i) for i in bad[0])
         raise InputError(f"{name}{list(index)} is {array[index]} s; durations must be > 0")
+    with np.errstate(over="ignore", invalid="ignore"):  # a sum beyond floating point is refused by its user
+        knots = np.cumsum(array, axis=-1)
+        lost = np.argwhere(np.diff(knots, axis=-1) <= 0)
+    if lost.size:
+        index = tuple(int(i) for i in lost[0])
+        segment = index[:-1] + (index[-1] + 1,)
+        raise InputError(f"{name}{list(segment)} = {array[segment]:.3g} s vanishes against the {knots[index]:.3g} s "
+                         f"before it: the knot times before and after it are the same number in floating point; "
+                         f"give durations of a physical size")
     return array
 
 

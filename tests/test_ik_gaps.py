@@ -169,26 +169,22 @@ def wide_ur5(ur5):
 @given(st.sampled_from([360.0, 600.0]), st.lists(st.floats(-np.pi, np.pi), min_size=6, max_size=6),
        st.lists(st.floats(0.0, 1.0), min_size=6, max_size=6))
 def test_nearest_turn_is_the_representative_nearest_the_reference(ur5, wide_ur5, span, q, reference):
-    """The continuous rule's 2 pi shift (``_nearest_turn``), with ranges of +-360 deg (UR5) and +-600 deg and a
-    reference (the previous configuration) in range: the result equals q up to whole turns and stays in
-    range; where the representative of q nearest the reference (brute force over the turns) is in range,
-    it is the result. (Where it is not, the code keeps q itself: see REPORT.md, side finding.)"""
+    """The 2 pi shift (``nearest_turn``), with ranges of +-360 deg (UR5) and +-600 deg and a reference
+    (the previous configuration) in range: the result equals q up to whole turns, stays in range, and is
+    the in-range representative of q nearest the reference (brute force over the turns). It once kept q
+    itself where the unconstrained nearest turn fell just outside the range."""
     robot = ur5 if span == 360.0 else wide_ur5
     lower, upper = robot.limits.lower, robot.limits.upper
     q, reference = np.array(q), lower + (upper - lower) * np.array(reference)
-    shifted = ik._nearest_turn(robot, q, reference)
+    shifted = ik.nearest_turn(robot, q, reference)
     assert np.all(shifted >= lower) and np.all(shifted <= upper)
     turns = (shifted - q) / (2 * np.pi)
     np.testing.assert_allclose(turns, np.round(turns), atol=1e-9)
     for j in range(6):
         options = q[j] + 2 * np.pi * np.arange(-4, 5)
-        distances = np.abs(options - reference[j])
-        order = np.argsort(distances)
-        if distances[order[1]] - distances[order[0]] < 1e-9:
-            continue  # two representatives equally near
-        nearest = options[order[0]]
-        if lower[j] <= nearest <= upper[j]:
-            assert shifted[j] == pytest.approx(nearest, abs=1e-9)
+        options = options[(options >= lower[j]) & (options <= upper[j])]
+        distances = np.sort(np.abs(options - reference[j]))
+        assert abs(shifted[j] - reference[j]) == pytest.approx(distances[0], abs=1e-9)
 
 
 def test_a_pose_outside_ranges_bounded_on_one_side_names_a_finite_bound(ur5):
