@@ -95,6 +95,22 @@ def test_concurrent_nlp_starts_match_serial_ones(monkeypatch):
         [(s.label, s.objective, s.iterations, s.status) for s in concurrent.starts]
 
 
+def test_cut_families_solve_their_starts_side_by_side_from_few_segments(monkeypatch):
+    """hermite7 and quintic take rounds of cuts per start: theirs run in processes from 2 segments, with
+    the results of a serial run."""
+    from planner import paper
+    from planner.timing import TimingProblem, nlp, optimize
+
+    problem = TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG[:4]), "quintic", paper.paper_limits())
+    concurrent = optimize(problem, "nlp")
+    monkeypatch.setattr(nlp, "CUT_CONCURRENT_SEGMENTS", 10**9)
+    serial = optimize(problem, "nlp")
+    assert (serial.settings["nlp"]["processes"], concurrent.settings["nlp"]["processes"]) == (1, 2)
+    np.testing.assert_array_equal(serial.durations, concurrent.durations)
+    assert [(s.label, s.objective, s.iterations) for s in serial.starts] == \
+        [(s.label, s.objective, s.iterations) for s in concurrent.starts]
+
+
 def sleep_then_pid(seconds):
     import time
     time.sleep(seconds)

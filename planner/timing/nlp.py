@@ -132,8 +132,13 @@ KEPT_PROGRAMS = 4
 REUSE_OVERRUN = 0.1
 #: Problems with at least this many segments solve their starts side by side, one process per start
 #: (``concurrency.map_forked``: on two cores, two starts take one start's time); below, forking
-#: costs more than it saves.
-CONCURRENT_SEGMENTS = 64
+#: costs more than it saves. Medians of 3, ``default``, clipped walks: hybrid 33 ms either way at
+#: n = 16, 0.50 -> 0.45 s at n = 32, 1.42 -> 1.00 s at n = 48.
+CONCURRENT_SEGMENTS = 16
+#: The same for the families whose limits only cuts bound (``quintic``, ``hermite7``: every start takes
+#: rounds of solves): side by side from this many segments. hermite7: paper case 2.25 -> 1.23 s,
+#: n = 32 walk 20.2 -> 10.2 s; quintic: paper case 98 -> 88 ms.
+CUT_CONCURRENT_SEGMENTS = 2
 #: The status of a start whose solve the time limit ended (in its own process, from ``CONCURRENT_SEGMENTS``
 #: on: IPOPT checks its own wall-time limit only between iterations, and one iteration of a degenerate
 #: problem took 10 s at n = 1000).
@@ -642,9 +647,17 @@ def _jerk_energy(ca, blocks: list[SegmentBlock], h):
     return total
 
 
+def _concurrent(problem: TimingProblem) -> bool:
+    """Whether ``problem``'s starts are solved side by side: from ``CONCURRENT_SEGMENTS`` segments on, or
+    ``CUT_CONCURRENT_SEGMENTS`` for a family of degree 5 and above (cuts bound its limits)."""
+    cut_only = problem.family.name in ("quintic", "hermite7")
+    return problem.segment_count >= (CUT_CONCURRENT_SEGMENTS if cut_only else CONCURRENT_SEGMENTS)
+
+
 def _processes(problem: TimingProblem, starts: int) -> int:
-    """How many processes solve ``starts`` starts of ``problem``: one each from ``CONCURRENT_SEGMENTS``."""
-    return starts if problem.segment_count >= CONCURRENT_SEGMENTS else 1
+    """How many processes solve ``starts`` starts of ``problem``: one each where they run side by side
+    (``_concurrent``)."""
+    return starts if _concurrent(problem) else 1
 
 
 def nlp_settings(problem: TimingProblem, starts: int) -> dict:
@@ -721,11 +734,11 @@ def _towards(problem: TimingProblem, tracker: SearchTracker, outside: np.ndarray
 
 
 def _solve_all(nlp: TimingNLP, starts: list[np.ndarray]) -> list[NLPOutcome]:
-    """``nlp.solve`` from each start (S,) [s]: from ``CONCURRENT_SEGMENTS`` on, one process each, ended at
-    the time limit (an outcome ``OUT_OF_TIME`` at its start; IPOPT's own limit is checked only between
-    iterations); below, one after another here."""
+    """``nlp.solve`` from each start (S,) [s]: where they run side by side (``_concurrent``), one process
+    each, ended at the time limit (an outcome ``OUT_OF_TIME`` at its start; IPOPT's own limit is checked
+    only between iterations); otherwise one after another here."""
     processes, remaining = _processes(nlp.problem, len(starts)), remaining_time()
-    if remaining is None or nlp.problem.segment_count < CONCURRENT_SEGMENTS:
+    if remaining is None or not _concurrent(nlp.problem):
         return map_forked(nlp.solve, starts, processes)
     nlp.deadline_enforced = True  # each solve runs in a process ended at the limit
     try:
