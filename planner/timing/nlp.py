@@ -132,9 +132,9 @@ KEPT_PROGRAMS = 4
 REUSE_OVERRUN = 0.1
 #: Problems with at least this many segments solve their starts side by side, one process per start
 #: (``concurrency.map_forked``: on two cores, two starts take one start's time); below, forking
-#: costs more than it saves. Medians of 3, ``default``, clipped walks: hybrid 33 ms either way at
-#: n = 16, 0.50 -> 0.45 s at n = 32, 1.42 -> 1.00 s at n = 48.
-CONCURRENT_SEGMENTS = 16
+#: costs more than it saves (``scripts/bench_scale.py``, hybrid, smooth walks: 30 -> 42 ms at n = 16,
+#: 39 -> 50 ms at n = 32, where each start takes a few milliseconds).
+CONCURRENT_SEGMENTS = 64
 #: The same for the families whose limits only cuts bound (``quintic``, ``hermite7``: every start takes
 #: rounds of solves): side by side from this many segments. hermite7: paper case 2.25 -> 1.23 s,
 #: n = 32 walk 20.2 -> 10.2 s; quintic: paper case 98 -> 88 ms.
