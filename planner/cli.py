@@ -35,12 +35,13 @@ def _interrupt(signum, frame):
 
 def _plan(args) -> int:
     from .outputs import output_folder
-    from .pipeline import OUTPUT_FILES, plan
+    from .pipeline import OUTPUT_FILES, output_writers, plan
     progress = TerminalProgress("optimizing", quiet=args.quiet)
-    with output_folder(args.out, force=args.force, files=OUTPUT_FILES) as staging:
+    # The writers first: forked before the output folder is locked, they do not hold its lock.
+    with output_writers() as writers, output_folder(args.out, force=args.force, files=OUTPUT_FILES) as staging:
         result = plan(args.task, progress=progress)
         progress.note(f"writing the outputs to {_printable(str(args.out))}")
-        result.write(staging)
+        result.write(staging, writers=writers)
     interrupts.finish()  # published: a signal from now on changes nothing
     out = Path(args.out)
     if not args.quiet:

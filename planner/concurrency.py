@@ -8,6 +8,9 @@ cross a pipe, pickled. Where the platform cannot fork, or one worker is asked
 for (the default: the core count), the work runs in the calling process, in
 order: same results.
 
+``WarmWorkers`` forks its children ahead of their work, so that each can prepare for
+it (import its library) while the caller goes on; the work then crosses a pipe too.
+
 A child's exception is raised again in the parent; an interruption of the
 parent (Ctrl-C, SIGTERM, a time limit, an error in its own share) ends the children at once,
 and on Linux a parent killed outright (SIGKILL) takes its children with it.
@@ -127,15 +130,22 @@ def _collect(receive, share: list[int], process, results: dict) -> None:
 
 
 def _serve(function: Callable, items: list, send, parent: int) -> None:
-    """A child's work: ``(False, results)`` or ``(True, exception)`` down ``send``.
+    """A child's work: ``(False, results)`` or ``(True, exception)`` down ``send``."""
+    _become_child(parent)
+    _run_and_send(function, items, send)
 
-    The parent alone answers Ctrl-C and SIGTERM (and then ends its children): a child ignores
+
+def _become_child(parent: int) -> None:
+    """The parent alone answers Ctrl-C and SIGTERM (and then ends its children): a child ignores
     SIGINT and dies at once on SIGTERM, rather than running the handlers it inherited, which a
-    library may swallow (IPOPT does) and which would leave it running after its parent has gone.
-    """
+    library may swallow (IPOPT does) and which would leave it running after its parent has gone."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     _end_with(parent)
+
+
+def _run_and_send(function: Callable, items: list, send) -> None:
+    """``(False, [function(item) ...])``, or ``(True, exception)`` at the first failure, down ``send``."""
     message: tuple[bool, object]
     try:
         message = (False, [function(item) for item in items])
@@ -155,3 +165,97 @@ def _picklable(exc: BaseException) -> bool:
     except Exception:  # noqa: BLE001 - any failure to round-trip means no
         return False
     return True
+
+
+class WarmWorkers:
+    """Processes forked ahead of their work, each to prepare for its share (import its library,
+    say) while the caller goes on; ``map`` then hands them their shares. Use it as a context
+    manager: leaving it ends whatever child is still running.
+
+    The work and its results cross pipes pickled (``map_forked`` needs no pickling: its children
+    are forked with the work in hand). Each child serves one share and ends, so ``map`` runs once.
+    Where the platform cannot fork, or the work does not pickle, ``map`` is ``map_forked``.
+    """
+
+    def __init__(self, preparations: Sequence[Callable[[], None] | None]):
+        """One child per preparation: child w runs ``preparations[w]()`` (None: nothing), then serves
+        share w of ``map``'s items (items w, w + count, ...). A preparation's failure is ignored
+        there: the work that needs it fails in turn, and says why."""
+        self.preparations = list(preparations)
+        self._children: list = []
+        self._used = False
+
+    def __enter__(self) -> "WarmWorkers":
+        context = _fork_context()
+        if context is None:
+            return self
+        try:
+            for prepare in self.preparations:
+                jobs, give = context.Pipe(duplex=False)
+                receive, send = context.Pipe(duplex=False)
+                process = context.Process(target=_serve_when_given, args=(prepare, jobs, send, os.getpid()),
+                                          daemon=True)
+                process.start()
+                jobs.close()
+                send.close()
+                self._children.append((process, give, receive))
+        except BaseException:
+            self.__exit__(None, None, None)
+            raise
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        for process, give, receive in self._children:
+            give.close()
+            receive.close()
+            if process.is_alive():
+                process.terminate()
+            process.join()
+        self._children = []
+
+    def map(self, function: Callable[[Item], Result], items: Sequence[Item]) -> list[Result]:
+        """``[function(item) for item in items]``, share w (items w, w + count, ...) in child w while
+        the caller waits; ``map_forked`` over as many workers when there are no children (no
+        ``fork``, or outside the context) or the work does not pickle."""
+        if self._used:
+            raise RuntimeError("WarmWorkers.map runs once: each child serves one share")
+        self._used = True
+        children = self._children[:len(items)]
+        shares = [list(range(w, len(items), len(children))) for w in range(len(children))]
+        try:
+            jobs = [pickle.dumps((function, [items[i] for i in share])) for share in shares]
+        except Exception:  # noqa: BLE001 - whatever stops pickling: fork with the work in hand instead
+            jobs = []
+        if not children or not jobs:
+            return map_forked(function, items, len(self.preparations))
+        for (_, give, _), job in zip(children, jobs):
+            give.send_bytes(job)
+        for _, give, _ in self._children:
+            give.close()  # a child without a share ends
+        results: dict[int, Result] = {}
+        for (process, _, receive), share in zip(children, shares):
+            _collect(receive, share, process, results)
+        return [results[i] for i in range(len(items))]
+
+
+def _serve_when_given(prepare: Callable[[], None] | None, jobs, send, parent: int) -> None:
+    """A warm child: ``prepare()``, then the share that comes down ``jobs`` (none: it ends)."""
+    _become_child(parent)
+    if prepare is not None:
+        try:
+            prepare()
+        except Exception:  # noqa: BLE001, S110 - the work that needs it fails in turn and says why
+            pass
+    try:
+        job = jobs.recv_bytes()
+    except EOFError:
+        return
+    try:
+        function, items = pickle.loads(job)
+    except Exception as exc:  # noqa: BLE001 - a share that cannot be read is that share's failure
+        function, items = _raise, [exc]
+    _run_and_send(function, items, send)
+
+
+def _raise(exc: BaseException) -> None:
+    raise exc

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from .cartesian_path import StraightPath, follow_straight_lines, tool_deviation
-from .concurrency import map_forked
+from .concurrency import WarmWorkers, map_forked
 from .dynamics import RobotLimitOutcome, joint_torques, meet_robot_limits, torque_limits
 from .errors import IKError, InfeasibleError, InputError, MissingLimitError, OutputError, PlannerError, TaskError
 from .export import coefficients_document, write_json, write_trajectory_csv
@@ -25,8 +25,8 @@ from .kinematics import KinematicFigures, Violation, kinematic_figures
 from .limits import FEASIBILITY_TOLERANCE, LIMITED, QUANTITIES, JointLimits, in_degrees, in_degrees_apart
 from .outputs import absolute_path, output_folder
 from .progress import TerminalProgress
-from .recording import write_recording
-from .report import plot_profiles
+from .recording import prepare_recording, write_recording
+from .report import plot_profiles, prepare_figure
 from .robot import Robot, load_robot
 from .splines import MAX_SAMPLES, PiecewisePolynomial
 from .task import Task, check_limit_counts, check_task, load_task, parse_task
@@ -192,9 +192,10 @@ class PlanResult:
             self.write(staging)
         return Path(out_dir)
 
-    def write(self, folder: Path) -> None:
+    def write(self, folder: Path, *, writers: WarmWorkers | None = None) -> None:
         """Write summary.json, trajectory.csv, coefficients.json, profiles.png and trajectory.rrd into
-        the existing ``folder`` (no atomicity of its own: ``save`` provides it).
+        the existing ``folder`` (no atomicity of its own: ``save`` provides it), with ``writers``
+        (``output_writers()``, started before planning) or processes forked now.
 
         Raises:
             OutputError: ``folder`` is no existing folder.
@@ -205,10 +206,13 @@ class PlanResult:
                               f"creates one)")
         start = time.perf_counter()
         # Three independent writers, each holding the GIL most of its time: side by side in processes.
-        map_forked(_call, [partial(self._write_recording, folder), partial(self._write_figure, folder),
-                           partial(write_trajectory_csv, folder / "trajectory.csv", self.trajectory,
-                                   self.task.sample_rate_hz, self.joint_names, self.torques_at if
-                                   self.torque_limit is not None else None)], workers=OUTPUT_WRITERS)
+        work = [partial(self._write_recording, folder), partial(self._write_figure, folder),
+                partial(write_trajectory_csv, folder / "trajectory.csv", self.trajectory, self.task.sample_rate_hz,
+                        self.joint_names, self.torques_at if self.torque_limit is not None else None)]
+        if writers is None:
+            map_forked(_call, work, workers=OUTPUT_WRITERS)
+        else:
+            writers.map(_call, work)
         self.timings_s["outputs"] = time.perf_counter() - start
         write_json(folder / "summary.json", self.summary(), digits=SUMMARY_DIGITS)
 
@@ -234,6 +238,12 @@ OUTPUT_FILES = ("summary.json", "trajectory.csv", "coefficients.json", "profiles
 #: Processes that write the outputs (``PlanResult.write``): the recording and coefficients, the figure,
 #: the CSV, each in its own (two cores write them in about the time of the slowest two).
 OUTPUT_WRITERS = 3
+
+
+def output_writers() -> WarmWorkers:
+    """The ``OUTPUT_WRITERS`` processes of ``PlanResult.write``, forked now so that they import Rerun
+    and matplotlib (about 0.3 s each) while the plan runs, rather than after it."""
+    return WarmWorkers([prepare_recording, prepare_figure, None])
 
 
 def _call(work: Callable[[], None]) -> None:

@@ -219,6 +219,13 @@ def _quiet_rerun_logs() -> None:
 FLUSH_TIMEOUT_S = 600.0
 
 
+def prepare_recording() -> None:
+    """Import Rerun as ``write_recording`` uses it, ahead of the recording (``pipeline.output_writers``)."""
+    _quiet_rerun_logs()
+    import rerun.blueprint  # noqa: F401 - imported for its cost, now
+    import rerun.urdf  # noqa: F401
+
+
 def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None:
     """Write ``result`` (a ``PlanResult``) as a Rerun recording at ``path`` (flushed and closed)."""
     _quiet_rerun_logs()  # the planner names missing meshes itself (summary.json, progress)

@@ -155,6 +155,12 @@ def _plain_text_figures():
         yield plt
 
 
+def prepare_figure() -> None:
+    """Import matplotlib as ``plot_profiles`` uses it, ahead of the figure (``pipeline.output_writers``)."""
+    with _plain_text_figures():
+        pass
+
+
 def _save(plt, figure, path: Path, dpi: int) -> None:
     """Write ``figure`` as PNG at ``dpi`` and close it. zlib level 1: a line figure's encoding takes
     a third of the time of matplotlib's default level 6, for a file about a fifth larger."""

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from planner import InfeasibleError, UnknownRobotError
-from planner.concurrency import core_count, map_forked
+from planner.concurrency import WarmWorkers, core_count, map_forked
 
 
 def square_with_pid(x):
@@ -74,6 +74,50 @@ def test_the_parents_failure_ends_its_children():
     with pytest.raises(KeyError):
         map_forked(slow_unless_first, [0, 1], workers=2)
     assert multiprocessing.active_children() == []
+
+
+def mark_prepared(folder):
+    def prepare():
+        (folder / str(os.getpid())).write_text("prepared")
+    return prepare
+
+
+def fail_to_prepare():
+    raise ImportError("no such library")
+
+
+def test_warm_workers_prepare_first_then_serve_their_shares_in_order(tmp_path):
+    """Each child runs its preparation before any work is handed over (the output writers import their
+    libraries while the plan runs), then serves its share; results come back in the items' order."""
+    import multiprocessing
+    with WarmWorkers([mark_prepared(tmp_path), fail_to_prepare, None]) as workers:
+        results = workers.map(square_with_pid, list(range(7)))
+        with pytest.raises(RuntimeError, match="runs once"):
+            workers.map(square_with_pid, [1])
+    assert [value for value, _ in results] == [x * x for x in range(7)]
+    pids = [pid for _, pid in results]
+    assert os.getpid() not in pids and len(set(pids)) == 3
+    assert [int(p.name) for p in tmp_path.iterdir()] == [pids[0]]  # child 0 prepared, and served items 0, 3, 6
+    assert pids[0::3] == [pids[0]] * 3
+    assert multiprocessing.active_children() == []
+
+
+def test_warm_workers_raise_a_childs_error_and_end_unused_children():
+    import multiprocessing
+    with pytest.raises(InfeasibleError, match="item 1 is odd"):
+        with WarmWorkers([None, None]) as workers:
+            workers.map(fail_on_odd, [0, 1])
+    with WarmWorkers([None, None, None]):
+        pass  # never handed work (the plan failed): the children end with the context
+    assert multiprocessing.active_children() == []
+
+
+def test_warm_workers_fork_with_the_work_in_hand_when_it_does_not_pickle():
+    offset = 10
+    with WarmWorkers([None, None]) as workers:
+        results = workers.map(lambda x: (x + offset, os.getpid()), [1, 2, 3])
+    assert [value for value, _ in results] == [11, 12, 13]
+    assert results[0][1] == os.getpid() != results[1][1]  # map_forked: the caller's share first
 
 
 def test_concurrent_nlp_starts_match_serial_ones(monkeypatch):
