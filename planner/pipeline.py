@@ -492,7 +492,8 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
             reasons = ([f"largest constraint ratio {result.max_ratio:.6g} (limit 1)"]
                        if result.max_ratio > 1 + FEASIBILITY_TOLERANCE or worst is None else []) + \
                 ([str(worst)] if worst else [])  # a position alone leaves the ratio at 1: no word of it then
-            raise InfeasibleError(f"no feasible timing found by {result.algorithm}: {'; '.join(reasons)}"
+            raise InfeasibleError(f"no feasible timing found by {result.algorithm}; in its best timing, "
+                                  f"{'; '.join(reasons)}"
                                   + _on_bound_hint(problem, found), violation=worst)
         return problem.trajectory(result.durations, result.knot_states), (problem, result)
 

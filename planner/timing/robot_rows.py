@@ -89,6 +89,11 @@ class RobotConstraints:
         return [(rows, float(limit)) for rows, limit in given if limit is not None]
 
     @property
+    def speed_parts(self) -> list[tuple[slice, float]]:
+        """Each speed limit's three rows among ``twist_rows`` (in their order) and its limit."""
+        return [(slice(3 * k, 3 * k + 3), limit) for k, (_, limit) in enumerate(self.speed_limits)]
+
+    @property
     def twist_rows(self) -> np.ndarray:
         """The rows of the tool's twist (linear 0..2, angular 3..5) the speed limits use, in their order."""
         return np.concatenate([np.arange(6)[rows] for rows, _ in self.speed_limits]) if self.speed_limits \
@@ -205,11 +210,8 @@ def model_error(constraints: RobotConstraints, frozen: FrozenModel, q: np.ndarra
     if torque is not None and model_torque is not None and constraints.torque is not None:
         gap = max(gap, float(np.max(np.abs(torque - model_torque) / constraints.torque)))
     if velocity is not None and model_velocity is not None:
-        start = 0
-        for _, limit in constraints.speed_limits:
-            part = slice(start, start + 3)
+        for part, limit in constraints.speed_parts:
             gap = max(gap, float(np.max(np.linalg.norm(velocity[:, part] - model_velocity[:, part], axis=1))) / limit)
-            start += 3
     return gap
 
 
@@ -248,8 +250,8 @@ def point_rows(ca, constraints: RobotConstraints, joints: int):
     if twist:
         jacobian, position, offset = parts
         velocity = ca.reshape(jacobian, joints, twist).T @ qd + ca.reshape(position, joints, twist).T @ q + offset
-        for k, (_, limit) in enumerate(constraints.speed_limits):
-            found.append(ca.sumsqr(velocity[3 * k:3 * k + 3]) / limit ** 2)
+        for part, limit in constraints.speed_parts:
+            found.append(ca.sumsqr(velocity[part]) / limit ** 2)
     return ca.Function("robot_rows", [q, qd, qdd, model], [ca.vertcat(*found)])
 
 
