@@ -27,13 +27,17 @@ from .splines import PiecewisePolynomial, derivative_coefficients, polyval, powe
 _IMAGINARY_TOLERANCE = 1e-7
 _LEADING_FLOOR = 1e-14
 _NEGLIGIBLE = 1e-10  # relative size of coefficients treated as zero when deflating at s = 1
-_DROP_DEGREE = 1e-9  # relative size of a leading coefficient below which the closed forms drop it
+#: Relative size of a leading coefficient below which the closed forms drop it. Between 1e-9 and about
+#: 5e-8 the cubic formula lost a root in [0, 1] to cancellation (0.641 for 0.7071 at 1e-8, beyond the
+#: Newton step's reach); from 1e-6 the worst root error times the slope is 4e-10 of the largest
+#: coefficient (16,200 random cubics with ratios 1e-10 to 1e-2).
+_DROP_DEGREE = 1e-6
 
 
 def _cubic_roots(p: np.ndarray) -> np.ndarray:
     """Real roots of polynomials of degree <= 3, ``p`` (..., 4) lowest first, in closed form.
 
-    Per element, a leading coefficient below 1e-9 of the largest is dropped
+    Per element, a leading coefficient below ``_DROP_DEGREE`` (1e-6) of the largest is dropped
     (cubic -> quadratic -> linear), which moves the polynomial by at most that
     much on [0, 1]. Three real roots by the trigonometric method, one by
     Cardano's formula; each root then takes one Newton step on the full
@@ -169,7 +173,7 @@ def column_roots(p: np.ndarray) -> np.ndarray:
     def store(cols, s, found):
         result[:, cols, :, :found.shape[-1]] = 1.0 - found if s else found
 
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # a huge root: outside [0, 1]
         for cols, s, x in groups["linear"]:
             store(cols, s, -x[..., :1] / x[..., 1:])
     if groups["cubic"]:

@@ -30,8 +30,12 @@ from .validate import finite_array, float_array, positive_durations, positive_fi
 #: Most samples ``PiecewisePolynomial.sample`` makes (each sample holds 4 x J floats): a cap on
 #: memory whatever the trajectory's length and the sample rate.
 MAX_SAMPLES = 1_000_000
-#: Largest gap [rad] a built spline may leave, by rounding, at a via-point or between two segments.
+#: Largest gap a built spline may leave, by rounding, at a via-point or between two segments: this
+#: fraction of the largest |via-point| [rad], and at least this many radians.
 BUILD_TOLERANCE = 1e-6
+#: Coefficients smaller than this [rad/s^i] carry no motion: a cubic spline's joint at rest over hundreds
+#: of segments decays geometrically towards them (and into subnormal numbers, which c_i h^i may lose).
+NEGLIGIBLE = 1e-150
 
 
 @dataclass(frozen=True)
@@ -70,8 +74,8 @@ class PiecewisePolynomial(ReadOnlyArrays):
         with np.errstate(all="ignore"):  # the exact figures work on c_i h^i: they must not overflow, nor a
             # moving joint's all vanish (a jerk of 6 over 1e-110 s would then be taken for none)
             normalised = coefficients * durations[:, None, None] ** np.arange(coefficients.shape[2])
-        lost = (~np.isfinite(normalised).all(axis=2)
-                | (np.any(coefficients[..., 1:] != 0, axis=2) & np.all(normalised[..., 1:] == 0, axis=2)))
+        moving = np.any(np.abs(coefficients[..., 1:]) > NEGLIGIBLE, axis=2)
+        lost = ~np.isfinite(normalised).all(axis=2) | (moving & np.all(normalised[..., 1:] == 0, axis=2))
         if lost.any():
             k = int(np.argwhere(lost)[0][0])
             raise InputError(f"segment {k}'s duration {durations[k]:.3g} s with its coefficients is beyond what "
@@ -270,18 +274,25 @@ class SplineFamily:
 
     def _check_passes(self, via: np.ndarray, h: np.ndarray, coefficients: np.ndarray, knots: np.ndarray) -> None:
         """Refuse coefficients (S, J, D+1) that rounding has parted from the via-points (n, J) [rad] or
-        broken apart at a knot by more than ``BUILD_TOLERANCE``: each segment's start c_0 and end
-        sum_i c_i h^i are compared with the via-point at its knot and with the next segment's start.
+        broken apart at a knot by more than ``BUILD_TOLERANCE`` (relative): each segment's start c_0 and end
+        sum_i c_i h^i are compared with the via-point at its knot and with the next segment's start. An
+        end is only known to within (D + 1) eps sum_i |c_i| h^i (the sum's own rounding, large where
+        its terms cancel): that is added to its gap, so a spline whose ends no evaluation pins down is
+        refused too.
 
         Raises:
             InputError: naming the knot, the joint, the gap and the durations' spread.
         """
+        power = powers(h, coefficients.shape[2])
         with np.errstate(all="ignore"):
-            ends = np.einsum("sjd,sd->sj", coefficients, powers(h, coefficients.shape[2]))
+            ends = np.einsum("sjd,sd->sj", coefficients, power)
+            doubt = coefficients.shape[2] * np.finfo(float).eps * np.einsum("sjd,sd->sj", np.abs(coefficients), power)
         positions = np.concatenate((coefficients[:, :, 0], ends[-1:]))  # (S+1, J) the start of each knot
-        gaps = np.concatenate((np.abs(positions[knots] - via).ravel(), np.abs(ends[:-1] - positions[1:-1]).ravel()))
+        uncertain = np.concatenate((np.zeros_like(coefficients[:, :, 0]), doubt[-1:]))  # the last knot's is an end
+        gaps = np.concatenate(((np.abs(positions[knots] - via) + uncertain[knots]).ravel(),
+                               (np.abs(ends[:-1] - positions[1:-1]) + doubt[:-1]).ravel()))
         worst = int(np.argmax(gaps))
-        if not gaps[worst] <= BUILD_TOLERANCE:
+        if not gaps[worst] <= BUILD_TOLERANCE * max(1.0, float(np.abs(via).max())):
             on_via = worst < via.size
             knot = int(knots[worst // via.shape[1]]) if on_via else worst // via.shape[1] - len(knots) + 1
             what = "misses its via-point" if on_via else "breaks apart"

@@ -398,3 +398,22 @@ def test_a_figure_that_is_not_a_number_is_a_violation():
     limits = JointLimits.create(1, lower=[-1.0], upper=[1.0], velocity=[1.0], acceleration=[1.0], jerk=[1.0])
     found = figures.violations(limits)
     assert {v.quantity for v in found} == {"velocity", "acceleration", "jerk", "position"}
+
+
+def test_a_cubic_with_a_leading_coefficient_near_rounding_keeps_its_roots():
+    """v = 2 s - 4 s^3 + 5e-9 s^4 (a quintic's velocity): the closed-form cubic for its sign changes
+    lost the root 1/sqrt(2) to cancellation, and the mean |v| came out as 3.3e-10 for 1/6 (hypothesis)."""
+    from scipy.integrate import quad
+
+    from planner.kinematics import _cubic_roots
+    from planner.splines import PiecewisePolynomial
+    for ratio in (1e-10, 1e-9, 3e-9, 1e-8, 3e-8, 1e-7, 1e-6, 1e-5):
+        found = _cubic_roots(np.array([2.0, 0.0, -4.0, 4.0 * ratio]))
+        true = np.roots([4.0 * ratio, -4.0, 0.0, 2.0]).real
+        inside = true[(true > 0) & (true < 1)]
+        assert np.nanmin(np.abs(found - inside[0])) < 1e-8, ratio
+    coefficients = np.zeros((1, 1, 6))
+    coefficients[0, 0, 2:] = [1.0, 0.0, -1.0, 1e-9]
+    trajectory = PiecewisePolynomial(np.ones(1), coefficients, np.array([0, 1]))
+    exact = quad(lambda t: abs(2 * t - 4 * t ** 3 + 5e-9 * t ** 4), 0, 1, points=[2 ** -0.5])[0]
+    assert kinematic_figures(trajectory).mean_abs[0, 0] == pytest.approx(exact, rel=1e-9)
