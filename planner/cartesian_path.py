@@ -35,7 +35,7 @@ from typing import Callable, TypeVar
 import numpy as np
 import pinocchio as pin
 
-from .errors import IKError, TaskError
+from .errors import IKError, InfeasibleError, TaskError
 from .ik import nearest_turn, solve_pose
 from .robot import Robot
 from .splines import PiecewisePolynomial
@@ -161,8 +161,9 @@ def follow_straight_lines(robot: Robot, poses: list[pin.SE3], waypoint_q: np.nda
 
     Raises:
         IKError: a segment that leaves the reachable workspace, or that no joint
-            motion follows (the deviation does not shrink as poses are inserted), naming
-            the segment, the fraction along it and the position.
+            motion follows (the deviation does not shrink as poses are inserted, or a round
+            cannot be timed where the joints jump between two poses), naming the segment,
+            the fraction along it and the position.
         TaskError: following the lines would need more than ``MAX_VIA_POINTS`` via-points.
     """
     # Per segment: the fractions u of its poses and their configurations, both ends included.
@@ -172,7 +173,11 @@ def follow_straight_lines(robot: Robot, poses: list[pin.SE3], waypoint_q: np.nda
         via = np.array([configurations[0][0]] + [q for segment in configurations for q in segment[1:]])
         counts = np.array([len(f) - 1 for f in fractions])
         waypoint_via = np.concatenate(([0], np.cumsum(counts)))
-        trajectory, timing = time_via_points(via)
+        try:
+            trajectory, timing = time_via_points(via)
+        except InfeasibleError:  # the poses may ask for a jump no timing follows: that is the error then
+            _name_jump(robot, poses, fractions, configurations)
+            raise
         distance, angle, per_distance, per_angle = tool_deviation(robot, trajectory, poses, waypoint_via)
         exceeded = (distance > MARGIN * tolerance_m) | (angle > MARGIN * tolerance_rad)
         outcome = (f"; inserting a pose in each of the {int(exceeded.sum())} intervals beyond the tolerances"
@@ -223,8 +228,7 @@ def _insert(robot: Robot, poses: list[pin.SE3], segment: int, local: int, fracti
     """Insert the pose halfway between poses ``local`` and ``local + 1`` of ``segment``.
 
     Raises:
-        IKError: the poses are already ``MIN_FRACTION`` close, the line leaves the workspace there,
-            or the joint motion jumps there (``_check_continuous``).
+        IKError: the poses are already ``MIN_FRACTION`` close, or the line leaves the workspace there.
     """
     low, high = fractions[local], fractions[local + 1]
     before, after = configurations[local], configurations[local + 1]
@@ -232,10 +236,8 @@ def _insert(robot: Robot, poses: list[pin.SE3], segment: int, local: int, fracti
         raise IKError(f"{_where(poses, segment, (low + high) / 2)}: the tool strays {1e3 * distance:.3g} mm and "
                       f"{np.rad2deg(angle):.3g} deg from the straight line however close the poses; "
                       f"{_why_not_followed(robot, before, after)}", waypoint=segment)
-    q = _pose_between(robot, poses, segment, low, high, before, after)
-    _check_continuous(robot, poses, segment, (low, (low + high) / 2, high), (before, q, after))
     fractions.insert(local + 1, (low + high) / 2)
-    configurations.insert(local + 1, q)
+    configurations.insert(local + 1, _pose_between(robot, poses, segment, low, high, before, after))
 
 
 def _where(poses: list[pin.SE3], segment: int, u: float) -> str:
@@ -275,6 +277,30 @@ def _pose_between(robot: Robot, poses: list[pin.SE3], segment: int, low: float, 
 
 #: A half interval keeping more than this fraction of its interval's joint change marks a possible jump.
 CONCENTRATED = 0.75
+#: Intervals, the largest joint changes first, searched for a jump when a round cannot be timed.
+JUMP_CANDIDATES = 3
+
+
+def _name_jump(robot: Robot, poses: list[pin.SE3], fractions: list[list[float]],
+               configurations: list[list[np.ndarray]]) -> None:
+    """Where a round's via-points cannot be timed, look for a joint motion that jumps between two
+    neighbouring poses (a singularity on the line: the timing then fails for a joint far from it,
+    after rounds of insertions): the ``JUMP_CANDIDATES`` intervals of largest joint change, each
+    bisected by ``_check_continuous``. Only then: near a singularity a fast but continuous motion
+    can look like a jump to the bisection's IK (another branch of the wrist), and it times well.
+
+    Raises:
+        IKError: the first interval whose motion jumps (``_check_continuous``).
+    """
+    intervals = [(float(np.abs(ends[k + 1] - ends[k]).max()), segment, k)
+                 for segment, ends in enumerate(configurations) for k in range(len(ends) - 1)]
+    for change, segment, k in sorted(intervals, reverse=True)[:JUMP_CANDIDATES]:
+        if change <= JUMP_RAD:
+            return
+        low, high = fractions[segment][k], fractions[segment][k + 1]
+        before, after = configurations[segment][k], configurations[segment][k + 1]
+        q = _pose_between(robot, poses, segment, low, high, before, after)
+        _check_continuous(robot, poses, segment, (low, (low + high) / 2, high), (before, q, after))
 
 
 def _check_continuous(robot: Robot, poses: list[pin.SE3], segment: int, fractions: tuple[float, float, float],

@@ -258,9 +258,8 @@ def test_a_line_through_a_wrist_singularity_names_where_the_joints_jump():
                                                    for p in poses]},
                        "limits": {"acceleration_deg_s2": [150] * 6, "jerk_deg_s3": [600] * 6},
                        "path": {"mode": "linear"}})
-    with pytest.raises(IKError, match=r"^path segment 0 \(waypoint 0 -> 1\) at fraction ([\d.]+), position .* m: no "
-                                      r"joint motion follows the straight line there: the joint motion jumps there "
-                                      r"\(joint 'wrist_\d_joint' by [\d.]+ deg") as caught:
+    with pytest.raises(IKError, match=r"^path segment 0 \(waypoint 0 -> 1\) at fraction ([\d.]+), position .* m: .*"
+                                      r"the joint motion jumps there \(joint 'wrist_\d_joint' by [\d.]+ deg") as caught:
         plan(task)
     u = float(caught.value.args[0].split("fraction ")[1].split(",")[0])
     smallest = [np.linalg.svd(ur5.frame_jacobian(q), compute_uv=False).min() for q in (start, end)]
@@ -268,6 +267,28 @@ def test_a_line_through_a_wrist_singularity_names_where_the_joints_jump():
     assert there.residual < 1e-9
     assert np.linalg.svd(ur5.frame_jacobian(there.q), compute_uv=False).min() < 0.2 * min(smallest)
     assert abs(there.q[4]) < np.deg2rad(2)  # wrist_2 near 0
+
+
+def test_a_round_that_cannot_be_timed_names_a_jump_between_its_poses_or_keeps_its_error():
+    """Where the via-points cannot be timed, the interval of largest joint change is bisected by IK: a
+    jump (the UR5's wrist flip at wrist_2 = 0) is named as the segment error; a continuous line keeps
+    the timing's own error."""
+    from planner import InfeasibleError
+    from planner.cartesian_path import follow_straight_lines
+    from planner.robot import Robot
+    ur5 = Robot.from_example_robot_data("ur5", "tool0")
+
+    def untimeable(via):
+        raise InfeasibleError("no timing")
+    start, end = np.deg2rad([20, -70, 80, -100, -20, 30]), np.deg2rad([20, -70, 80, -100, 20, 30])
+    poses = [ur5.forward_kinematics(q) for q in (start, end)]
+    with pytest.raises(IKError, match=r"^path segment 0 .* no joint motion follows the straight line there: the "
+                                      r"joint motion jumps there \(joint 'wrist_\d_joint'"):
+        follow_straight_lines(ur5, poses, np.array([start, end]), untimeable, 1e-3, np.deg2rad(0.5))
+    near = np.deg2rad([20, -70, 80, -100, -20, 40])  # wrist_3 turns 10 deg: no singularity between
+    with pytest.raises(InfeasibleError, match="no timing"):
+        follow_straight_lines(ur5, [poses[0], ur5.forward_kinematics(near)], np.array([start, near]), untimeable,
+                              1e-3, np.deg2rad(0.5))
 
 
 # --- follow_straight_lines on its own: the PUMA, timed under the paper's limits ---
