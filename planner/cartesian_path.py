@@ -24,7 +24,10 @@ tool by forward kinematics at ``CHECK_RATE_HZ`` (and at least
 would exceed ``MAX_CHECK_SAMPLES`` is sampled more sparsely, down to that
 count), inserts the midpoint of every
 interval whose tool strays beyond ``MARGIN`` of a tolerance, and repeats until
-none does. The margin covers what lies between samples.
+none does. The margin covers what lies between samples. Where a round's
+via-points cannot be timed, the intervals of largest joint change are bisected by
+IK alone (``_name_jump``): a motion that jumps (a singularity on the line) is
+then named as the segment's error rather than the timing's.
 """
 
 from __future__ import annotations
