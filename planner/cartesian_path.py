@@ -267,14 +267,14 @@ def _pose_between(robot: Robot, poses: list[pin.SE3], segment: int, low: float, 
     for seed in (middle, before, after):
         solution = solve_pose(robot, target, seed)
         q = nearest_turn(robot, solution.q, middle)
-        found.append((solution.residual > 1e-9, np.abs(q - middle).max(), solution.residual, q, solution))
-        if solution.residual <= 1e-9 and found[-1][1] <= span:
+        found.append((solution, q, np.abs(q - middle).max()))
+        if solution.residual <= 1e-9 and found[-1][2] <= span:
             break
-    failed, _, residual, q, best = min(found, key=lambda option: option[:3])
-    if failed:
+    best, q, _ = min(found, key=lambda option: (option[0].residual > 1e-9, option[2], option[0].residual))
+    if best.residual > 1e-9:
         raise IKError(f"{_where(poses, segment, (low + high) / 2)}: the straight line leaves the reachable workspace "
                       f"(best residual {best.position_error:.3g} m, {np.rad2deg(best.orientation_error):.3g} deg)",
-                      waypoint=segment, residual=residual)
+                      waypoint=segment, residual=best.residual)
     return q
 
 
