@@ -547,7 +547,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
             *_, distance, angle = tool_deviation(robot, trajectory, poses, waypoints)
             path = StraightPath(via, waypoints, np.zeros(len(poses) - 1, dtype=int), distance, angle, 1)
     timings["optimization"] = time.perf_counter() - start
-    met = None
+    met, figures = None, None
     if task.robot_limits.given:
         assert robot is not None  # the task schema requires a robot for them
         start = time.perf_counter()
@@ -572,7 +572,8 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
                 candidate = None
             # The new durations reshape the spline between via-points: its positions may leave a range, and in
             # linear mode the tool the straight lines, where the kinematic optimum's did not. Then it is not kept.
-            keeps_path = candidate is not None and not kinematic_figures(candidate).violations(limits)
+            candidate_figures = None if candidate is None else kinematic_figures(candidate)
+            keeps_path = candidate_figures is not None and not candidate_figures.violations(limits)
             if keeps_path and path is not None and task.path.mode == "linear":
                 assert poses is not None and candidate is not None
                 *_, distance, angle = tool_deviation(robot, candidate, poses, path.waypoint_via)
@@ -583,6 +584,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
             if keeps_path and candidate is not None and candidate.total_time < trajectory.total_time:
                 trajectory, met = candidate, replace(candidate_met, uniform_total_s=trajectory.total_time,
                                                      kinematic_total_s=met.kinematic_total_s)
+                figures = candidate_figures
         check_slowed_bounds(trajectory.durations, settings["bounds"], met)
         if met.uniform_total_s is not None:
             progress.note(f"timed with the torque and tool-speed limits: {trajectory.total_time:.6g} s, where slowing "
@@ -591,6 +593,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
             progress.note(f"slowed down {met.slow_down:.6g} times to meet the torque and tool-speed limits")
         timings["robot_limits"] = time.perf_counter() - start
     check_sample_count(task, trajectory.total_time, slowed=met)
-    figures = kinematic_figures(trajectory)
+    if figures is None:
+        figures = kinematic_figures(trajectory)
     return PlanResult(task, via, limits, result, trajectory, figures, timings, robot, ik, path, branch_times, kept,
                       met)

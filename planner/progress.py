@@ -26,7 +26,7 @@ class TerminalProgress:
         self.enabled = not quiet
         self.live = self.enabled and hasattr(self.status, "isatty") and self.status.isatty()
         self.label = label
-        self._last = 0.0
+        self._last = -float("inf")  # the first count shows, however soon after boot (monotonic time)
         self._min_interval = min_interval_s
 
     def __call__(self, done: int, total: int, best: float) -> None:

@@ -111,7 +111,14 @@ class SymbolicSpline:
 
 
 class SplineFormulation:
-    """The symbolic form of one family for given via-points, limits and scales."""
+    """The symbolic form of one family for given via-points, limits and scales.
+
+    Attributes:
+        limits_by_cuts: whether the family's velocity, acceleration and jerk extremes inside segments
+            are all bounded by cuts (degree 5 and above), so that an NLP start takes several rounds.
+    """
+
+    limits_by_cuts = False
 
     def __init__(self, family: SplineFamily, via_points: np.ndarray, limits: JointLimits, scales: Scales):
         self.family = family
@@ -285,13 +292,15 @@ class QuinticFormulation(SplineFormulation):
     start kept, where it now converges to 346.64 s).
 
     Exact limits: |v|, |a|, |j| at the knots are variable bounds; their interior
-    extremes (and the position's) are certified by the NLP. Where a via-point sits on a
-    position bound, the first derivative that is free there must point back into the range
+    extremes (and the position's) are certified by the NLP (``limits_by_cuts``). Where a via-point
+    sits on a position bound, the first derivative that is free there must point back into the range
     (an interior knot's acceleration, its velocity being 0; an end's jerk, its velocity and
     acceleration being 0): variable bounds, necessary conditions, so exact; without them the
     position's cuts closed in on a dip beside the knot only slowly (the paper case with joint 1's
     range at its own extremes ended 2e-8 rad beyond it after 12 rounds; now 2 rounds).
     """
+
+    limits_by_cuts = True
 
     def build(self, h) -> SymbolicSpline:
         """The quintic spline for symbolic durations ``h`` (class docstring)."""
@@ -377,6 +386,8 @@ class Hermite7Formulation(SplineFormulation):
     Exact limits: the knot values |v|, |a|, |j| <= limit are variable bounds (v fixed at 0 where a
     via-point is on its position bound); extremes inside segments (degrees 4 to 7) get cuts.
     """
+
+    limits_by_cuts = True
 
     def build(self, h) -> SymbolicSpline:
         """The Hermite segments for symbolic durations ``h`` and the state variables."""
