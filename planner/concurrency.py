@@ -24,8 +24,12 @@ import os
 import pickle
 import signal
 import time
+from contextlib import contextmanager
 from multiprocessing.connection import wait
-from typing import Callable, Sequence, TypeVar
+from typing import Callable, Iterator, Sequence, TypeVar
+
+from .interrupts import check as check_interrupted
+from .interrupts import deferred
 
 Item = TypeVar("Item")
 Result = TypeVar("Result")
@@ -80,9 +84,10 @@ def _map(function: Callable[[Item], Result], items: Sequence[Item], workers: int
             receive, send = context.Pipe(duplex=False)
             process = context.Process(target=_serve, args=(function, [items[i] for i in share], send, os.getpid()),
                                       daemon=True)
-            process.start()
+            with _forking():  # started and listed in one step: the cleanup below ends every child
+                process.start()
+                children.append((share, process, receive))
             send.close()
-            children.append((share, process, receive))
         if deadline is None:
             results.update({i: function(items[i]) for i in shares[0]})
             for share, process, receive in children:
@@ -99,6 +104,31 @@ def _map(function: Callable[[Item], Result], items: Sequence[Item], workers: int
                 process.terminate()
             process.join()
     return results
+
+
+#: The signals the command line handles (``cli._interrupt``), held back while a child is forked
+#: (``_forking``).
+_HANDLED = {signal.SIGINT, signal.SIGTERM}
+
+
+@contextmanager
+def _forking() -> Iterator[None]:
+    """The ``with`` block forks a child: Ctrl-C and SIGTERM are held back in this thread, which the
+    child inherits (it unblocks them once it has set its own handlers, ``_become_child``), and an
+    interruption the parent's handler records meanwhile (another thread may take the signal) is
+    raised when the block ends (``interrupts.deferred``). Otherwise a signal then ran the parent's
+    handler in the child (a traceback beside the command's one line), or in the parent inside the
+    fork's own hooks, which swallow its exception: the parent then took the child's death for an
+    internal error (3 runs in 25 with SIGTERM to the process group 0.3 to 2 s after the start)."""
+    if not hasattr(signal, "pthread_sigmask"):  # not POSIX: no fork either
+        yield
+        return
+    with deferred():
+        previous = signal.pthread_sigmask(signal.SIG_BLOCK, _HANDLED)
+        try:
+            yield
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 #: ``prctl`` option: the signal the kernel sends a process when its parent dies (Linux).
@@ -123,6 +153,7 @@ def _collect(receive, share: list[int], process, results: dict) -> None:
         failed, payload = receive.recv()
     except EOFError:
         process.join()
+        check_interrupted()  # the child ended with the signal that interrupts the parent too
         raise RuntimeError(f"a worker process ended without a result (exit code {process.exitcode})") from None
     if failed:
         raise payload
@@ -141,6 +172,8 @@ def _become_child(parent: int) -> None:
     library may swallow (IPOPT does) and which would leave it running after its parent has gone."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, _HANDLED)  # held back by the parent (``_forking``)
     _end_with(parent)
 
 
@@ -195,10 +228,11 @@ class WarmWorkers:
                 receive, send = context.Pipe(duplex=False)
                 process = context.Process(target=_serve_when_given, args=(prepare, jobs, send, os.getpid()),
                                           daemon=True)
-                process.start()
+                with _forking():  # started and listed in one step: ``__exit__`` ends every child
+                    process.start()
+                    self._children.append((process, give, receive))
                 jobs.close()
                 send.close()
-                self._children.append((process, give, receive))
         except BaseException:
             self.__exit__(None, None, None)
             raise

@@ -12,8 +12,12 @@ signals change nothing.
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+from typing import Iterator
+
 _pending: BaseException | None = None
 _finished = False
+_deferring = 0
 
 
 def request(interruption: BaseException) -> None:
@@ -25,13 +29,28 @@ def request(interruption: BaseException) -> None:
     if _finished or _pending is not None:
         return
     _pending = interruption
-    raise interruption
+    if not _deferring:
+        raise interruption
 
 
 def check() -> None:
     """Raise the recorded interruption, if any (call it where a swallowed one must surface)."""
     if _pending is not None and not _finished:
         raise _pending
+
+
+@contextmanager
+def deferred() -> Iterator[None]:
+    """An interruption requested in the ``with`` block is recorded there and raised when the block
+    ends: for code that must not be cut halfway, or that would swallow it (a fork runs hooks,
+    ``os.register_at_fork``, in which an exception is printed and dropped)."""
+    global _deferring
+    _deferring += 1
+    try:
+        yield
+    finally:
+        _deferring -= 1
+    check()
 
 
 def finish() -> None:
