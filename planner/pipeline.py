@@ -231,8 +231,9 @@ class PlanResult:
 
 
 #: The algorithms whose plans are timed again with the torque and tool-speed limits in the NLP when
-#: those slow the kinematic optimum down (the others end there: they have no NLP of their own).
-ROBOT_AWARE_ALGORITHMS = ("default", "nlp")
+#: those slow the kinematic optimum down, unless their setting ``polish`` turns their NLP off
+#: (``retimes_in_nlp``); the others end there: they have no NLP of their own.
+ROBOT_AWARE_ALGORITHMS = ("default", "nlp", "cuckoo")
 #: The files ``PlanResult.write`` writes.
 OUTPUT_FILES = ("summary.json", "trajectory.csv", "coefficients.json", "profiles.png", "trajectory.rrd")
 #: Processes that write the outputs (``PlanResult.write``): the recording and coefficients, the figure,
@@ -248,6 +249,12 @@ def output_writers() -> WarmWorkers:
 
 def _call(work: Callable[[], None]) -> None:
     work()
+
+
+def retimes_in_nlp(optimizer: dict) -> bool:
+    """Whether a plan by ``optimizer`` (a task's ``optimizer`` section: ``algorithm`` and its ``settings``)
+    is timed again with the torque and tool-speed limits in the NLP (``ROBOT_AWARE_ALGORITHMS``)."""
+    return optimizer["algorithm"] in ROBOT_AWARE_ALGORITHMS and optimizer["settings"].get("polish") is not False
 
 
 def check_sample_count(task: Task, total_time: float, *, lower_bound: bool = False,
@@ -561,7 +568,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
                                      timed.via_times[at_waypoints])
         trajectory, met = meet(trajectory)
         constraints = RobotConstraints(robot, torque, given.tool_speed, given.tool_angular_speed)
-        if met.slow_down > 1 and settings["algorithm"] in ROBOT_AWARE_ALGORITHMS and constraints.supported:
+        if met.slow_down > 1 and retimes_in_nlp(settings) and constraints.supported:
             progress.note(f"slowed down {met.slow_down:.6g} times; timing again with the torque and tool-speed "
                           f"limits in the NLP")
             with time_limit(max(deadline - time.monotonic(), 0.0)):

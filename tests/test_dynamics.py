@@ -192,6 +192,25 @@ def test_a_tool_speed_cap_is_met_exactly_and_timing_with_it_beats_slowing_down(p
     assert result.summary()["total_time_s"] < 0.7 * summary["uniform_slow_down_total_time_s"]
 
 
+@pytest.mark.parametrize("polish", [True, False])
+def test_cuckoo_search_times_again_with_the_tool_speed_in_its_nlp_unless_it_has_none(puma, polish):
+    """Cuckoo Search ends in the NLP (its polish): that NLP takes the robot rows too; without the
+    polish it has no NLP, and the kinematic optimum is slowed down uniformly, to the cap exactly."""
+    task = paper_task(tool_speed_m_s=0.25)
+    task["optimizer"] = {"algorithm": "cuckoo", "nests": 4, "iterations": 2, "polish": polish}
+    result = plan(task)
+    summary = result.summary()["robot_limits"]
+    trajectory = result.trajectory
+    speed = independent_tool_speed(puma, trajectory, np.linspace(1e-5, trajectory.total_time - 1e-5, 20001))
+    assert 0.25 * (1 - 1e-3) <= speed.max() <= 0.25 * (1 + 1e-4)
+    assert summary["retimed_in_nlp"] is polish
+    if polish:
+        assert result.summary()["total_time_s"] < 0.7 * summary["uniform_slow_down_total_time_s"]
+    else:
+        assert summary["slow_down"] > 1 and result.trajectory.total_time == pytest.approx(
+            result.optimization.total_time * summary["slow_down"], rel=1e-9)
+
+
 def test_torque_limits_that_bind_are_met_at_points_the_planner_did_not_use(puma):
     efforts = np.array([97.6, 186.4, 89.4, 24.2, 20.1, 21.3])
     fast = paper_task(acceleration_deg_s2=[2000] * 6, jerk_deg_s3=[20000] * 6, velocity_deg_s=[400] * 6)
