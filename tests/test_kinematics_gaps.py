@@ -1,0 +1,137 @@
+"""Gaps in the tests of planner/kinematics.py found by mutation testing (mutmut)."""
+
+import numpy as np
+import pytest
+
+from planner import InputError, JointLimits, get_family, paper
+from planner.kinematics import KinematicFigures, column_roots, segment_extrema, segment_ranges
+
+P = np.polynomial.polynomial
+
+
+def test_eigen_roots_floor_the_leading_coefficient_per_polynomial_not_per_batch():
+    """A degree-5 column (companion eigenvalues) holding a polynomial 1e14 times larger than its
+    neighbour: each one's leading coefficient is compared with its own coefficients, so the small
+    one keeps its roots (numpy's polyroots, independently)."""
+    small = P.polyfromroots([0.3, 0.6, 2.0, 3.0, 4.0])           # leading coefficient 1, others up to 42
+    large = 1e14 * P.polyfromroots([0.2, 0.9, -2.0, 5.0, 6.0])
+    found = column_roots(np.stack((large, small))[None, None])[0, 0]
+    for row, coefficients in zip(found, (large, small)):
+        roots = P.polyroots(coefficients).real
+        expected = np.sort(roots[(roots >= 0) & (roots <= 1)])
+        np.testing.assert_allclose(np.sort(row[~np.isnan(row)]), expected, atol=1e-9)
+
+
+def _figures(joints=2):
+    """Figures set by hand: |v|, |a|, |jerk| maxima and a position range per joint."""
+    max_abs = np.ones((3, joints))
+    return KinematicFigures(max_abs, max_abs / 2, np.zeros(joints), np.zeros(joints), np.zeros(joints), 1.0)
+
+
+def test_ratios_reject_limits_of_another_kind_or_joint_count_as_input_errors():
+    figures = _figures(joints=4)
+    with pytest.raises(InputError, match="limits must be a JointLimits for 4 joints, got str$"):
+        figures.ratios("limits")
+    with pytest.raises(InputError, match="limits must be a JointLimits for 4 joints, got 3 joints$"):
+        figures.ratios(JointLimits.create(3, velocity=[1.0, 1.0, 1.0]))
+
+
+def test_a_figure_exactly_at_the_feasibility_tolerance_is_no_violation():
+    """The one definition of feasibility: ratio <= 1 + tolerance and position within tolerance [rad]
+    of its range hold with equality (limits 1 and the bounds reached 0: the differences are exact in floats)."""
+    from planner.limits import FEASIBILITY_TOLERANCE as TOL
+    at = 1.0 + TOL
+    figures = KinematicFigures(np.full((3, 2), at), np.zeros((3, 2)), np.array([-TOL, 0.0]),
+                               np.array([0.0, TOL]), np.zeros(2), 1.0)
+    limits = JointLimits.create(2, lower=[0.0, -1.0], upper=[1.0, 0.0], velocity=[1.0, 1.0],
+                                acceleration=[1.0, 1.0], jerk=[1.0, 1.0])
+    assert figures.ratios(limits).max() == at
+    assert figures.violations(limits) == []
+    beyond = np.nextafter(at, 2.0)
+    over = KinematicFigures(np.full((3, 2), beyond), np.zeros((3, 2)), np.array([np.nextafter(-TOL, -1), 0.0]),
+                            np.array([0.0, np.nextafter(TOL, 1)]), np.zeros(2), 1.0)
+    assert len(over.violations(limits)) == 3 * 2 + 2
+
+
+def _dense(coefficients, durations, order, samples=4001):
+    """(S, J) min and max of q^(order) on each segment by dense sampling of numpy's polyval."""
+    s = np.linspace(0.0, 1.0, samples)
+    low, high = [], []
+    for c, h in zip(coefficients, durations):
+        values = np.stack([P.polyval(s * h, P.polyder(c[j], order)) for j in range(c.shape[0])])
+        low.append(values.min(axis=1))
+        high.append(values.max(axis=1))
+    return np.array(low), np.array(high)
+
+
+@pytest.mark.parametrize("joints", [2, 6])
+@pytest.mark.parametrize("name", ["cubic", "hybrid", "quintic"])
+def test_segment_extrema_hold_the_extremes_of_every_segment(name, joints):
+    """segment_extrema (the NLP's certificates read it) against numpy and dense sampling: every
+    candidate lies in [0, 1], its value is q^(d)(s h), and the candidates' min and max are the
+    segment's extremes (equal to segment_ranges')."""
+    via = np.deg2rad(paper.VIA_POINTS_DEG)[:5, :joints]
+    family = get_family(name)
+    durations = np.random.default_rng(3).uniform(0.5, 3.0, family.segment_count(len(via)))
+    trajectory = family.build(via, durations)
+    c, h = trajectory.coefficients[None], trajectory.durations[None]
+    orders = (0, 1, 2, 3)
+    locations, values = segment_extrema(c, h, orders)
+    low, high = segment_ranges(c, h, orders)
+    assert locations.shape[:4] == values.shape[:4] == (4, 1, trajectory.segment_count, trajectory.joint_count)
+    assert np.all((locations >= 0.0) & (locations <= 1.0))
+    for k, order in enumerate(orders):
+        for seg in range(trajectory.segment_count):
+            for j in range(trajectory.joint_count):
+                derivative = P.polyder(trajectory.coefficients[seg, j], order)
+                expected = P.polyval(locations[k, 0, seg, j] * trajectory.durations[seg], derivative)
+                scale = max(np.abs(expected).max(), 1e-12)
+                np.testing.assert_allclose(values[k, 0, seg, j], expected, rtol=0, atol=1e-9 * scale)
+        dense_low, dense_high = _dense(trajectory.coefficients, trajectory.durations, order)
+        scale = np.maximum(np.abs(dense_low), np.abs(dense_high)).max()
+        np.testing.assert_allclose(values[k, 0].min(axis=-1), dense_low, rtol=0, atol=1e-6 * scale)
+        np.testing.assert_allclose(values[k, 0].max(axis=-1), dense_high, rtol=0, atol=1e-6 * scale)
+        assert np.all(values[k, 0].min(axis=-1) <= dense_low + 1e-12 * scale)
+        assert np.all(values[k, 0].max(axis=-1) >= dense_high - 1e-12 * scale)
+        np.testing.assert_allclose(values[k, 0].min(axis=-1), low[k, 0], rtol=0, atol=1e-12 * scale)
+        np.testing.assert_allclose(values[k, 0].max(axis=-1), high[k, 0], rtol=0, atol=1e-12 * scale)
+
+
+# Cubics with three real roots in [0, 1], two of them 1e-9 to 1e-8 apart: the trigonometric method's
+# arccos argument 3 Q / (P r) rounds to just beyond +1 or -1 (found by a random search), so only its
+# clipping to [-1, 1] keeps the roots, among them the simple one (an extreme of the segment).
+NEAR_DOUBLE_CUBICS = [
+    ("-0x1.a4173db361897p-5", "0x1.3388ae1f4d17ep-1", "-0x1.0a2874742feb2p+1", "0x1.c80bb9e58ae40p+0"),  # +1
+    ("-0x1.b53569cd4fb2ap-5", "0x1.894d076a9e0b2p-2", "-0x1.a2e0c944f69a3p-1", "0x1.16b4d084fe0c0p-1"),  # -1
+]
+
+
+@pytest.mark.parametrize("hex_coefficients", NEAR_DOUBLE_CUBICS)
+def test_cubic_roots_keep_every_root_where_the_arccos_argument_rounds_past_one(hex_coefficients):
+    from planner.kinematics import _cubic_roots
+    p = np.array([float.fromhex(x) for x in hex_coefficients])
+    d, c, b, a = p
+    big_b, big_c, big_d = b / a, c / a, d / a
+    pp = big_c - big_b * big_b / 3.0
+    qq = 2.0 * big_b ** 3 / 27.0 - big_b * big_c / 3.0 + big_d
+    assert 4.0 * pp ** 3 + 27.0 * qq * qq < 0.0 and abs(3.0 * qq / (pp * 2.0 * np.sqrt(-pp / 3.0))) > 1.0
+    expected = np.sort(P.polyroots(p).real)
+    assert np.all((expected > 0) & (expected < 1))
+    for found in (_cubic_roots(p), column_roots(p[None, None, None])[0, 0, 0]):
+        assert not np.isnan(found).any()
+        np.testing.assert_allclose(np.sort(found), expected, atol=1e-7)  # the close pair to about sqrt(eps)
+
+
+@pytest.mark.parametrize("lead", [2e-7, 5e-7, 9e-7])
+def test_a_dropped_leading_coefficient_is_corrected_by_the_newton_step(lead):
+    """-0.3 + 1.7 s - 2 s^2 + lead s^3 with lead below 1e-6 of the largest coefficient: the closed form
+    solves the quadratic (roots 0.25 and 0.6, about 1e-7 off), and the Newton step on the full cubic
+    brings them to numpy's roots within 1e-11."""
+    from planner.kinematics import _cubic_roots
+    p = np.array([-0.3, 1.7, -2.0, lead])
+    expected = P.polyroots(p).real
+    expected = np.sort(expected[(expected > 0) & (expected < 1)])
+    assert len(expected) == 2 and abs(expected[1] - 0.6) > 1e-8  # the quadratic's root is measurably off
+    for found in (_cubic_roots(p), column_roots(p[None, None, None])[0, 0, 0]):
+        inside = np.sort(found[(found > 0) & (found < 1)])
+        np.testing.assert_allclose(inside, expected, rtol=0, atol=1e-11)
