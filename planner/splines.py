@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from math import factorial
+from typing import Callable
 
 import numpy as np
 from scipy.linalg import solve_banded
@@ -262,9 +263,8 @@ class SplineFamily:
             if states.shape != (*via.shape, 3):
                 raise InputError(f"states must have shape (n, J, 3) = {(*via.shape, 3)} (velocity, acceleration "
                                  f"and jerk of every via-point), got {states.shape}")
-        with np.errstate(all="ignore"):  # extreme durations overflow: refused just below, by name
-            coefficients = (self.batch_coefficients(via, h[None]) if states is None
-                            else self.coefficients_from_states(via, h[None], states[None]))[0]
+        coefficients = self._computed(via, h, lambda: (self.batch_coefficients(via, h[None]) if states is None else
+                                                       self.coefficients_from_states(via, h[None], states[None]))[0])
         if not np.all(np.isfinite(coefficients)):
             raise InputError(f"durations from {h.min():.3g} to {h.max():.3g} s overflow the {self.name} spline's "
                              f"coefficients (not finite numbers); give durations of a physical size")
@@ -302,9 +302,22 @@ class SplineFamily:
                              f"durations of a physical size")
 
     def build_batch(self, via_points, durations) -> np.ndarray:
-        """Coefficients (B, S, J, D+1) for a batch of duration vectors (B, S) [s]."""
+        """Coefficients (B, S, J, D+1) for a batch of duration vectors (B, S) [s] (not finite where
+        durations of no physical size overflow them)."""
         via, h = self.check(via_points, durations)
-        return self.batch_coefficients(via, np.atleast_2d(h))
+        return self._computed(via, h, lambda: self.batch_coefficients(via, np.atleast_2d(h)))
+
+    def _computed(self, via: np.ndarray, h: np.ndarray, compute: Callable[[], np.ndarray]) -> np.ndarray:
+        """``compute()``'s coefficients, its overflows silent (the callers check them), and the failure of a
+        library it calls on extreme durations (SciPy's B-spline for ``quintic``) an ``InputError``."""
+        try:
+            with np.errstate(all="ignore"):
+                return compute()
+        except InputError:
+            raise
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+            raise InputError(f"the {self.name} spline cannot be built from durations {h.min():.3g} to {h.max():.3g} s "
+                             f"({type(exc).__name__}: {exc}); give durations of a physical size") from None
 
 
 class CubicFamily(SplineFamily):

@@ -54,7 +54,7 @@ from .read_only import ReadOnlyArrays, freeze_arrays
 from .splines import FAMILIES
 from .timing import OPTIMIZERS, SETTING_RANGES, checked_settings, setting_names
 from .timing.problem import OBJECTIVES
-from .validate import MAX_SEED, Range, number, ranged, within
+from .validate import DURATION_BOUND_RANGE, MAX_SEED, Range, number, ranged, within
 from .yaml_input import MAX_NESTING, key_path, read_yaml
 
 SCHEMA_VERSION = 1
@@ -106,8 +106,8 @@ RANGES: dict[str, Range | type] = {
     "limits.tool_speed_deg_s": Range(1e-6, 1e6),                      # [deg/s]
     "optimizer.seed": Range(0, MAX_SEED, integer=True),
     "optimizer.time_limit_s": Range(0, 86_400, low_open=True),         # [s]: at most a day
-    "optimizer.bounds_s[0]": Range(0, 86_400, low_open=True),          # h_min [s]: at most a day
-    "optimizer.bounds_s[1]": Range(0, 86_400, low_open=True),          # h_max [s]
+    "optimizer.bounds_s[0]": Range(DURATION_BOUND_RANGE.low, 86_400),  # h_min [s]: 1 us to a day
+    "optimizer.bounds_s[1]": Range(DURATION_BOUND_RANGE.low, 86_400),  # h_max [s]
     "optimizer.weights[0]": Range(1e-6, 1e6),                          # K_t [1/s]
     "optimizer.weights[1]": Range(0, 1e6),                             # K_j [s^5/rad^2]
     **{f"optimizer.{name}": rule for name, rule in SETTING_RANGES.items()},

@@ -347,3 +347,19 @@ def test_the_build_tolerance_scales_with_the_via_points():
     durations[[0, -1]] = 1e-3
     trajectory = get_family("quintic").build(via, durations)
     np.testing.assert_allclose(trajectory.evaluate(trajectory.via_times), via, atol=1e-6)
+
+
+@pytest.mark.parametrize("family", ["cubic", "hybrid", "quintic", "hermite7"])
+@pytest.mark.parametrize("durations", [np.full(4, 1e-300), np.full(4, 5e-324), np.full(4, 1e300),
+                                       np.logspace(-150, 150, 4)])
+def test_durations_of_no_physical_size_are_refused_by_name_in_every_family(family, durations):
+    """quintic's SciPy B-spline raised its own ValueError or LinAlgError on these (sweep 8); every
+    family now refuses them with an InputError, whether built alone or in a batch."""
+    via = np.deg2rad([[10, 15, 45], [60, 25, 180], [75, 30, 200], [130, -45, 120], [110, -55, 15]])
+    spline = get_family(family)
+    h = durations if spline.segment_count(5) == 4 else np.concatenate((durations[:1], durations, durations[-1:]))
+    with pytest.raises(InputError, match="physical size"):
+        spline.build(via, h)
+    if family == "quintic":
+        with pytest.raises(InputError, match="physical size"):
+            spline.build_batch(via, h[None])

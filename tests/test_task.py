@@ -77,7 +77,8 @@ def test_optional_sections_take_defaults():
     ({"optimizer__particles": 5}, r"^optimizer.particles: unknown key"),
     ({"optimizer__nests": 2.5}, r"^optimizer.nests: must be a whole number"),
     ({"optimizer__bounds_s": [5, 3]}, r"^optimizer.bounds_s: lower bound 5.0 exceeds upper bound 3.0"),
-    ({"optimizer__bounds_s": [0, 3]}, r"^optimizer.bounds_s\[0\]: must be > 0 and <= 86400, got 0$"),
+    ({"optimizer__bounds_s": [0, 3]}, r"^optimizer.bounds_s\[0\]: must be >= 1e-06 and <= 86400, got 0$"),
+    ({"optimizer__bounds_s": [1e-300, 3]}, r"^optimizer.bounds_s\[0\]: must be >= 1e-06 and <= 86400, got 1e-300$"),
     ({"optimizer__objective": "energy"}, r"^optimizer.objective: unknown objective 'energy'"),
     ({"optimizer__polish": 1}, r"^optimizer.polish: must be true or false"),
 ])
@@ -333,7 +334,7 @@ def test_lists_and_mappings_are_not_names(where, value):
     ("optimizer.weights[0]", 0, r"must be >= 1e-06 and <= 1e\+06, got 0$"),
     ("optimizer.weights[0]", 1e300, r"must be >= 1e-06 and <= 1e\+06, got 1e\+300$"),
     ("optimizer.weights[1]", -1e-9, r"must be >= 0 and <= 1e\+06, got -1e-09$"),
-    ("optimizer.bounds_s[1]", 1e9, r"must be > 0 and <= 86400, got 1000000000.0$"),
+    ("optimizer.bounds_s[1]", 1e9, r"must be >= 1e-06 and <= 86400, got 1000000000.0$"),
     ("waypoints.cartesian[0].xyz_m[0]", 1e160, r"must be >= -10000 and <= 10000, got 1e\+160$"),
 ])
 def test_numbers_out_of_range_are_refused(where, value, message):

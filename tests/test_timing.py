@@ -559,3 +559,19 @@ def test_an_optimum_on_h_max_is_feasible(algorithm):
                             objective="time-jerk", weights=(k_t, k_j))
     result = optimize(problem, algorithm, seed=0)
     assert result.feasible and np.allclose(result.durations, 2.0)
+
+
+@pytest.mark.parametrize("keywords, message", [
+    ({"bounds": (1e-300, 1e-299)}, r"bounds \[h_min, h_max\] must each be >= 1e-06 and <= 1e\+06 s"),
+    ({"bounds": (1e-6, 1e300)}, r"bounds \[h_min, h_max\] must each be >= 1e-06 and <= 1e\+06 s"),
+    ({"min_duration": 1e300}, r"min_duration must be >= 0 s and <= 1e\+06 s, got 1e\+300")])
+@pytest.mark.parametrize("family", ["cubic", "hybrid", "quintic", "hermite7"])
+def test_duration_bounds_beyond_any_robot_are_refused_by_name(keywords, message, family):
+    """They ended in NumPy's LinAlgError or SciPy's ValueError while the problem was set up (sweep 8)."""
+    with pytest.raises(InputError, match=message):
+        TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG[:4]), family, paper.paper_limits(), **keywords)
+
+
+def test_the_shortest_allowed_bounds_are_infeasible_by_name_not_by_a_numerical_failure():
+    with pytest.raises(InfeasibleError, match=r"infeasible even with every duration at h_max = 1e-06 s"):
+        TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG[:4]), "hybrid", paper.paper_limits(), bounds=(1e-6, 1e-6))

@@ -44,7 +44,7 @@ from ..errors import InfeasibleError, InputError
 from ..kinematics import Violation, batch_scale_factors, jerk_energy, position_range
 from ..limits import FEASIBILITY_TOLERANCE, QUANTITIES, JointLimits, in_degrees, in_degrees_apart, time_scale_factor
 from ..splines import FAMILIES, PiecewisePolynomial, SplineFamily, get_family, powers
-from ..validate import finite_array
+from ..validate import DURATION_BOUND_RANGE, finite_array
 
 OBJECTIVES = ("time", "time-jerk")
 #: Consecutive via-points closer than this in every joint [rad] are one via-point.
@@ -123,8 +123,8 @@ class TimingProblem:
         self.weights = (float(weights_array[0]), float(weights_array[1]))
         self.bounds = None if bounds is None else self._check_bounds(bounds)
         floor = finite_array("min_duration", [min_duration], 1)[0]
-        if floor < 0:
-            raise InputError(f"min_duration must be >= 0 s, got {floor:g}")
+        if not 0 <= floor <= DURATION_BOUND_RANGE.high:
+            raise InputError(f"min_duration must be >= 0 s and <= {DURATION_BOUND_RANGE.high:g} s, got {floor:g}")
         if self.bounds is not None and floor > self.bounds[1]:
             raise InputError(f"the minimum segment duration {floor:g} s exceeds the upper duration bound "
                              f"{self.bounds[1]:g} s")
@@ -161,6 +161,9 @@ class TimingProblem:
         array = finite_array("bounds", bounds, 1)
         if array.shape != (2,) or not 0 < array[0] <= array[1]:
             raise InputError(f"bounds must be [h_min, h_max] with 0 < h_min <= h_max, got {list(bounds)}")
+        if not (array[0] in DURATION_BOUND_RANGE and array[1] in DURATION_BOUND_RANGE):
+            raise InputError(f"bounds [h_min, h_max] must each be {DURATION_BOUND_RANGE} s (no robot moves faster "
+                             f"or slower; floating point would not hold the splines), got {list(bounds)}")
         return float(array[0]), float(array[1])
 
     def _check_via_points_in_range(self, limits: JointLimits) -> None:
