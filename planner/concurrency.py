@@ -35,6 +35,10 @@ Item = TypeVar("Item")
 Result = TypeVar("Result")
 
 
+class WorkerLost(RuntimeError):
+    """A worker process ended without its results (killed by a signal, the out-of-memory killer, ...)."""
+
+
 def core_count() -> int:
     """The cores this process may run on."""
     try:
@@ -154,7 +158,7 @@ def _collect(receive, share: list[int], process, results: dict) -> None:
     except EOFError:
         process.join()
         check_interrupted()  # the child ended with the signal that interrupts the parent too
-        raise RuntimeError(f"a worker process ended without a result (exit code {process.exitcode})") from None
+        raise WorkerLost(f"a worker process ended without a result (exit code {process.exitcode})") from None
     if failed:
         raise payload
     results.update(zip(share, payload))
@@ -262,13 +266,23 @@ class WarmWorkers:
             jobs = []
         if not children or not jobs:
             return map_forked(function, items, len(self.preparations))
-        for (_, give, _), job in zip(children, jobs):
-            give.send_bytes(job)
-        for _, give, _ in self._children:
-            give.close()  # a child without a share ends
         results: dict[int, Result] = {}
-        for (process, _, receive), share in zip(children, shares):
-            _collect(receive, share, process, results)
+        try:
+            for (process, give, _), job in zip(children, jobs):
+                try:
+                    give.send_bytes(job)
+                except OSError:  # the child has died (killed): say so, as when its result is missing
+                    process.join()
+                    check_interrupted()
+                    raise WorkerLost(f"a worker process ended before its work was handed over (exit code "
+                                     f"{process.exitcode})") from None
+            for _, give, _ in self._children:
+                give.close()  # a child without a share ends
+            for (process, _, receive), share in zip(children, shares):
+                _collect(receive, share, process, results)
+        except BaseException:
+            self.__exit__(None, None, None)  # every child ends before the caller cleans up (its folder, say)
+            raise
         return [results[i] for i in range(len(items))]
 
 

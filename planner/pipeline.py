@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from .cartesian_path import StraightPath, follow_straight_lines, tool_deviation
-from .concurrency import WarmWorkers, map_forked
+from .concurrency import WarmWorkers, WorkerLost, map_forked
 from .dynamics import RobotLimitOutcome, joint_torques, meet_robot_limits, torque_limits
 from .errors import IKError, InfeasibleError, InputError, MissingLimitError, OutputError, PlannerError, TaskError
 from .export import coefficients_document, write_json, write_trajectory_csv
@@ -209,10 +209,13 @@ class PlanResult:
         work = [partial(self._write_recording, folder), partial(self._write_figure, folder),
                 partial(write_trajectory_csv, folder / "trajectory.csv", self.trajectory, self.task.sample_rate_hz,
                         self.joint_names, self.torques_at if self.torque_limit is not None else None)]
-        if writers is None:
-            map_forked(_call, work, workers=OUTPUT_WRITERS)
-        else:
-            writers.map(_call, work)
+        try:
+            if writers is None:
+                map_forked(_call, work, workers=OUTPUT_WRITERS)
+            else:
+                writers.map(_call, work)
+        except WorkerLost as exc:
+            raise OutputError(f"cannot write the outputs: a process writing them died ({exc})") from None
         self.timings_s["outputs"] = time.perf_counter() - start
         write_json(folder / "summary.json", self.summary(), digits=SUMMARY_DIGITS)
 

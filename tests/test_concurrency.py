@@ -84,6 +84,7 @@ def test_a_signal_during_a_fork_reaches_the_parent_after_it_and_never_the_child(
     nothing held back."""
     import signal
     import threading
+    import time
 
     from planner import concurrency, interrupts
 
@@ -97,9 +98,10 @@ def test_a_signal_during_a_fork_reaches_the_parent_after_it_and_never_the_child(
         with pytest.raises(Stop):
             with concurrency._forking():
                 os.kill(os.getpid(), signal.SIGTERM)
-                for _ in range(1000):  # bytecodes enough for a handler to run, were it not held back
-                    pass
-                reached = True
+                deadline = time.monotonic() + 10
+                while interrupts._pending is None and time.monotonic() < deadline:
+                    time.sleep(0.001)  # the other thread takes it; the handler runs here, and records it
+                reached = interrupts._pending is not None
         assert reached
         interrupts.reset()
         with WarmWorkers([None]) as workers:
@@ -133,6 +135,35 @@ def slow_unless_first(x):
         import time
         time.sleep(60)
     raise KeyError("the parent's own share fails")
+
+
+def sleep_or_die(x):
+    import time
+    if x == 0:
+        os.kill(os.getpid(), 9)
+    time.sleep(60)
+
+
+def test_warm_workers_name_a_killed_child_and_end_the_others_before_raising():
+    """A writer killed from outside (SIGKILL, the out-of-memory killer) was 'Broken pipe' (taken for the
+    folder's fault) or an internal error, and the surviving writers still wrote into the staging folder
+    that the failure's cleanup removed, leaving a half-written one behind. Now it is ``WorkerLost``, and
+    every child has ended when ``map`` raises."""
+    import multiprocessing
+    import signal
+
+    from planner.concurrency import WorkerLost
+
+    with WarmWorkers([None, None]) as workers:
+        os.kill(workers._children[0][0].pid, signal.SIGKILL)
+        workers._children[0][0].join()
+        with pytest.raises(WorkerLost, match=r"before its work was handed over \(exit code -9\)"):
+            workers.map(square_with_pid, [1, 2])
+        assert multiprocessing.active_children() == []
+    with WarmWorkers([None, None]) as workers:
+        with pytest.raises(WorkerLost, match=r"ended without a result \(exit code -9\)"):
+            workers.map(sleep_or_die, [0, 1])  # the second child sleeps on: it must be ended first
+        assert multiprocessing.active_children() == []
 
 
 def test_the_parents_failure_ends_its_children():

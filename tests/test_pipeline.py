@@ -388,3 +388,21 @@ def test_a_family_with_free_states_outside_the_duration_bounds_names_the_bound_a
     error = caught.value
     assert error.quantity in ("velocity", "acceleration", "jerk") and error.joint in (0, 1)
     assert error.value == pytest.approx(error.limit, rel=1e-6)
+
+
+def test_a_writer_killed_from_outside_is_an_output_error_and_nothing_is_published(tmp_path):
+    import os
+    import signal
+
+    from planner.concurrency import WarmWorkers
+    from planner.outputs import output_folder
+    from planner.pipeline import OUTPUT_FILES, OUTPUT_WRITERS
+
+    result = plan(PAPER_JOINT)
+    with WarmWorkers([None] * OUTPUT_WRITERS) as writers:
+        os.kill(writers._children[2][0].pid, signal.SIGKILL)
+        with pytest.raises(planner.OutputError,
+                           match=r"^cannot write the outputs: a process writing them died \(.*exit code -9\)\)$"):
+            with output_folder(tmp_path / "out", files=OUTPUT_FILES) as staging:
+                result.write(staging, writers=writers)
+    assert list(tmp_path.iterdir()) == []  # no staging folder, no half-written output
