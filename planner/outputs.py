@@ -326,7 +326,12 @@ def output_folder(path, *, force: bool = False, files: Iterable[str] = ()) -> It
             os.mkdir(staging, 0o777)  # the umask applies, as to any folder the user makes
         except OSError as exc:
             staging = None
-            raise OutputError(f"output folder {folder}: cannot write there ({exc.strerror or exc})") from None
+            hint = ""
+            if exc.errno == errno.ENAMETOOLONG and not in_place:
+                extra = len(".staging-") + 1 + _STAGING_DIGITS
+                hint = (f"; the outputs are staged beside it as .NAME.staging-XXXXXXXX, {extra} bytes longer than its "
+                        f"name: shorten it to at most {255 - extra} bytes")
+            raise OutputError(f"output folder {folder}: cannot write there ({exc.strerror or exc}){hint}") from None
         (staging / STAGING_MARKER).touch()
         yield staging
         check_interrupted()  # an interruption a library swallowed must not publish half a run

@@ -408,12 +408,16 @@ def _robot(value, path: str, base: Path | None) -> RobotSpec:
     given = section["urdf"]  # a path object too, from Python (make_task)
     urdf = Path(_text(os.fspath(given) if isinstance(given, os.PathLike) else given, f"{path}.urdf"))
     candidates = [urdf] if urdf.is_absolute() else [p for p in ((base / urdf) if base else None, urdf) if p]
-    for candidate in candidates:
-        try:
+    try:
+        for candidate in candidates:
             if candidate.is_file():
                 return RobotSpec(candidate.resolve(), None, tool)
-        except OSError as exc:  # a name too long, say
-            raise TaskError(f"{path}.urdf", f"cannot read {_said(str(urdf))} ({exc.strerror or exc})") from None
+        other = next((candidate for candidate in candidates if candidate.exists()), None)
+    except OSError as exc:  # a name too long, say
+        raise TaskError(f"{path}.urdf", f"cannot read {_said(str(urdf))} ({exc.strerror or exc})") from None
+    if other is not None:
+        what = "a folder" if other.is_dir() else "a device, pipe or socket"
+        raise TaskError(f"{path}.urdf", f"{_said(str(urdf))} is {what}, not a URDF file")
     raise TaskError(f"{path}.urdf", f"file not found: {_said(str(urdf))}")
 
 
@@ -722,4 +726,16 @@ def load_task(path) -> Task:
     if data is None:
         raise TaskError(str(path), "the task file is empty (nothing but blanks and comments); a task starts "
                                    "with version: 1 and gives waypoints:")
+    if not isinstance(data, dict):
+        raise TaskError(str(path), f"the task file holds a {_yaml_kind(data)} where a task is a mapping of keys "
+                                   f"(version: 1, waypoints: ..., limits: ...)")
     return parse_task(data, name=path.stem[:MAX_NAME_CHARS], source=path)
+
+
+def _yaml_kind(value) -> str:
+    """What a parsed YAML value is, in YAML's words: list, text, number, true/false."""
+    if isinstance(value, list):
+        return "list"
+    if isinstance(value, bool):
+        return "true/false value"
+    return "number" if isinstance(value, (int, float)) else "text" if isinstance(value, str) else type(value).__name__

@@ -82,3 +82,13 @@ def test_no_hermite7_trajectory_is_faster_than_the_bound():
     limits = JointLimits.create(2, velocity=[1.0, 0.7], acceleration=[2.0, 1.0], jerk=[8.0, 5.0])
     result = optimize(TimingProblem(via, "hermite7", limits), "nlp")
     assert result.feasible and time_lower_bound(via, limits) <= result.total_time
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_via_points_that_are_not_numbers_are_refused_not_bounded_by_nan(bad):
+    from planner import InputError
+
+    with pytest.raises(InputError, match=rf"via_points\[0, 1\] is {bad}, not a finite number"):
+        time_lower_bound(np.array([[0.0, bad], [1.0, 1.0]]), JointLimits.create(2, velocity=[1, 1]))
+    with pytest.raises(InputError, match="limits must be a JointLimits for the via-points' 2 joints"):
+        time_lower_bound(np.zeros((3, 2)), JointLimits.create(3, velocity=[1, 1, 1]))

@@ -95,7 +95,7 @@ def test_missing_and_malformed_files(tmp_path):
     with pytest.raises(TaskError, match=r"not valid YAML at line \d+"):
         load_task(bad)
     bad.write_text("- 1\n- 2\n")
-    with pytest.raises(TaskError, match="must be a mapping, got list"):
+    with pytest.raises(TaskError, match=r"bad.yaml: the task file holds a list where a task is a mapping of keys"):
         load_task(bad)
 
 
@@ -541,3 +541,19 @@ def test_a_pose_whose_rotation_is_no_rotation_is_refused_by_its_index(rotation, 
     error = assert_refused(lambda: make_task(robot={"name": "ur5", "tool_frame": "tool0"}, poses=poses),
                            "the pose's rotation is not a rotation matrix: " + message, "waypoints.cartesian[1]")
     assert "quat" not in str(error)
+
+
+@pytest.mark.parametrize("text, kind", [("- a\n- b\n", "list"), ("3\n", "number"), ("just words\n", "text")])
+def test_a_task_file_that_is_no_mapping_is_named_with_what_it_holds(tmp_path, text, kind):
+    (tmp_path / "task.yaml").write_text(text)
+    with pytest.raises(TaskError, match=rf"task.yaml: the task file holds a {kind} where a task is a mapping"):
+        load_task(tmp_path / "task.yaml")
+
+
+def test_a_urdf_path_to_a_folder_or_a_device_is_named_as_such(tmp_path):
+    data = {"version": 1, "robot": {"tool_frame": "tool"},
+            "waypoints": {"cartesian": [{"xyz_m": [0.4, 0, 0.3], "rpy_deg": [180, 0, 0]}] * 2}}
+    for urdf, what in ((tmp_path, "a folder"), ("/dev/null", "a device, pipe or socket")):
+        data["robot"]["urdf"] = str(urdf)
+        with pytest.raises(TaskError, match=rf"^robot.urdf: .* is {what}, not a URDF file$"):
+            parse_task(data)

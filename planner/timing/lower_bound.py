@@ -36,7 +36,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import InputError
 from ..limits import JointLimits
+from ..validate import finite_array
 
 #: Pairs of via-points at most this many apart are links of the chains (besides every pair from the
 #: first and to the last via-point).
@@ -106,7 +108,10 @@ def time_lower_bound(via_points: np.ndarray, limits: JointLimits) -> float:
     """A lower bound [s] on the total time of any trajectory, of any family or none, that passes
     ``via_points`` (n, J) [rad] in order from rest to rest within ``limits``' velocity,
     acceleration and jerk (module docstring); ranges and duration bounds are not used."""
-    values = np.asarray(via_points, dtype=float)
+    values = finite_array("via_points", via_points, 2)
+    if not isinstance(limits, JointLimits) or values.shape[1] != limits.joint_count:
+        raise InputError(f"limits must be a JointLimits for the via-points' {values.shape[1]} joints, got "
+                         f"{limits!r:.80}")
     keep = np.concatenate(([True], np.any(np.diff(values, axis=0) != 0, axis=1)))
     values = values[keep]
     count = len(values)
