@@ -199,7 +199,10 @@ def follow_straight_lines(robot: Robot, poses: list[pin.SE3], waypoint_q: np.nda
                                                 f"allow larger tolerances or split the task")
         # Segment by segment; within one, backwards, so an insertion keeps the earlier indices valid.
         for i, k in sorted(found, key=lambda item: (item[0], -item[1])):
-            _insert(robot, poses, i, k - waypoint_via[i], fractions[i], configurations[i], distance[k], angle[k])
+            local = k - waypoint_via[i]
+            if fractions[i][local + 1] - fractions[i][local] < 2 * MIN_FRACTION:  # no closer pose can help here:
+                _name_jump(robot, poses, fractions, configurations)  # a jump elsewhere may be why, not the tolerance
+            _insert(robot, poses, i, local, fractions[i], configurations[i], distance[k], angle[k])
     k = int(np.argmax(np.maximum(distance / tolerance_m, angle / tolerance_rad)))
     i = int(np.searchsorted(waypoint_via, k, side="right") - 1)
     raise IKError(f"path segment {i} (waypoint {i} -> {i + 1}): the tool still strays {1e3 * distance[k]:.3g} mm "
@@ -286,10 +289,10 @@ JUMP_CANDIDATES = 3
 
 def _name_jump(robot: Robot, poses: list[pin.SE3], fractions: list[list[float]],
                configurations: list[list[np.ndarray]]) -> None:
-    """Where a round's via-points cannot be timed, look for a joint motion that jumps between two
-    neighbouring poses (a singularity on the line: the timing then fails for a joint far from it,
-    after rounds of insertions): the ``JUMP_CANDIDATES`` intervals of largest joint change, each
-    bisected by ``_check_continuous``. Only then: near a singularity a fast but continuous motion
+    """Where a round's via-points cannot be timed, or poses can come no closer, look for a joint motion
+    that jumps between two neighbouring poses (a singularity on the line: the timing then fails for a
+    joint far from it, or the rounds stall beside it): the ``JUMP_CANDIDATES`` intervals of largest
+    joint change, each bisected by ``_check_continuous``. Only then: near a singularity a fast but continuous motion
     can look like a jump to the bisection's IK (another branch of the wrist), and it times well.
 
     Raises:

@@ -577,3 +577,18 @@ def test_running_out_of_rounds_names_the_interval_straying_most_relative_to_its_
     assert segment == segments[worst]
     assert float(found[4]) == pytest.approx(1e3 * deviations[worst][0], rel=0.05, abs=1e-3)
     assert float(found[5]) == pytest.approx(np.rad2deg(deviations[worst][1]), rel=0.05, abs=1e-3)
+
+
+def test_a_jump_elsewhere_is_named_rather_than_the_tolerance_blamed():
+    """The UR5 pick-and-place with +-720 deg ranges and the continuous rule: its IK sequence turns
+    shoulder_pan by 218 deg between two poses of one line. The rounds ended where poses could come no
+    closer, beside the jump, with 'the joints barely move there: allow a larger path.tolerance_m'
+    (sweep 8; a 50 times larger tolerance failed alike). The jump is named instead."""
+    data = yaml.safe_load((TASKS / "ur5_pick_and_place.yaml").read_text())
+    data["limits"]["position_deg"] = [[-720, 720]] * 6
+    data["ik"] = {"branch": "continuous"}
+    data["path"] = {"mode": "linear"}
+    with pytest.raises(IKError, match=r"^path segment 2 \(waypoint 2 -> 3\) at fraction .*: no joint motion follows "
+                                      r"the straight line there: the joint motion jumps there \(joint "
+                                      r"'shoulder_pan_joint' by 2\d\d deg"):
+        plan(parse_task(data))
