@@ -36,7 +36,7 @@ class Range:
 
 
 #: Duration bounds a timing may impose [s] (a task's ``bounds_s``, ``TimingProblem``'s ``bounds`` and
-#: ``min_duration``): 1 us, a tenth of a 10 kHz controller's period, to 1e6 s (11.6 days). Beyond them
+#: ``min_duration``): 1 us, a hundredth of a 10 kHz controller's period, to 1e6 s (11.6 days). Beyond them
 #: the splines' coefficients (c_i ~ dq / h^i, up to i = 7) and jerk energies (~ h^-5) leave floating point
 #: (bounds of 1e-300 s ended in NumPy's LinAlgError), and no robot moves on either scale.
 DURATION_BOUND_RANGE = Range(1e-6, 1e6)
