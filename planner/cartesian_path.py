@@ -292,8 +292,9 @@ def _name_jump(robot: Robot, poses: list[pin.SE3], fractions: list[list[float]],
     """Where a round's via-points cannot be timed, or poses can come no closer, look for a joint motion
     that jumps between two neighbouring poses (a singularity on the line: the timing then fails for a
     joint far from it, or the rounds stall beside it): the ``JUMP_CANDIDATES`` intervals of largest
-    joint change, each bisected by ``_check_continuous``. Only then: near a singularity a fast but continuous motion
-    can look like a jump to the bisection's IK (another branch of the wrist), and it times well.
+    joint change, each bisected by ``_check_continuous``. Only where the plan fails anyway: near a
+    singularity a fast but continuous motion can look like a jump to the bisection's IK (another
+    branch of the wrist), and it times well.
 
     Raises:
         IKError: the first interval whose motion jumps (``_check_continuous``).

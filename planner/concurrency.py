@@ -156,12 +156,18 @@ def _collect(receive, share: list[int], process, results: dict) -> None:
     try:
         failed, payload = receive.recv()
     except EOFError:
-        process.join()
-        check_interrupted()  # the child ended with the signal that interrupts the parent too
-        raise WorkerLost(f"a worker process ended without a result (exit code {process.exitcode})") from None
+        raise _lost(process, "without a result") from None
     if failed:
         raise payload
     results.update(zip(share, payload))
+
+
+def _lost(process, when: str) -> WorkerLost:
+    """The error of a child that ended ``when`` (its pipe closed): the parent's own interruption
+    is raised instead where the same signal ended the child."""
+    process.join()
+    check_interrupted()
+    return WorkerLost(f"a worker process ended {when} (exit code {process.exitcode})")
 
 
 def _serve(function: Callable, items: list, send, parent: int) -> None:
@@ -272,10 +278,7 @@ class WarmWorkers:
                 try:
                     give.send_bytes(job)
                 except OSError:  # the child has died (killed): say so, as when its result is missing
-                    process.join()
-                    check_interrupted()
-                    raise WorkerLost(f"a worker process ended before its work was handed over (exit code "
-                                     f"{process.exitcode})") from None
+                    raise _lost(process, "before its work was handed over") from None
             for _, give, _ in self._children:
                 give.close()  # a child without a share ends
             for (process, _, receive), share in zip(children, shares):

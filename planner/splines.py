@@ -263,7 +263,7 @@ class SplineFamily:
             if states.shape != (*via.shape, 3):
                 raise InputError(f"states must have shape (n, J, 3) = {(*via.shape, 3)} (velocity, acceleration "
                                  f"and jerk of every via-point), got {states.shape}")
-        coefficients = self._computed(via, h, lambda: (self.batch_coefficients(via, h[None]) if states is None else
+        coefficients = self._computed(h, lambda: (self.batch_coefficients(via, h[None]) if states is None else
                                                        self.coefficients_from_states(via, h[None], states[None]))[0])
         if not np.all(np.isfinite(coefficients)):
             raise InputError(f"durations from {h.min():.3g} to {h.max():.3g} s overflow the {self.name} spline's "
@@ -305,9 +305,9 @@ class SplineFamily:
         """Coefficients (B, S, J, D+1) for a batch of duration vectors (B, S) [s] (not finite where
         durations of no physical size overflow them)."""
         via, h = self.check(via_points, durations)
-        return self._computed(via, h, lambda: self.batch_coefficients(via, np.atleast_2d(h)))
+        return self._computed(h, lambda: self.batch_coefficients(via, np.atleast_2d(h)))
 
-    def _computed(self, via: np.ndarray, h: np.ndarray, compute: Callable[[], np.ndarray]) -> np.ndarray:
+    def _computed(self, h: np.ndarray, compute: Callable[[], np.ndarray]) -> np.ndarray:
         """``compute()``'s coefficients, its overflows silent (the callers check them), and the failure of a
         library it calls on extreme durations (SciPy's B-spline for ``quintic``) an ``InputError``."""
         try:
