@@ -3,8 +3,8 @@
 Tasks, for 6 joints under Table III limits, no bounds, objective ``time``:
 
 * ``smooth``: a random walk of ``n`` via-points, steps uniform in +-40 degrees
-  per joint (seed = n);
-* ``clipped`` (the hard class): the same kind of walk (seed = n + 1)
+  per joint (seed = n, and with ``--walks K`` also n + 1000 k for k = 1 .. K - 1);
+* ``clipped`` (the hard class): the same kind of walk (seed = n + 1, n + 1 + 1000 k)
   clipped to the PUMA 560's position ranges (``robots/puma560.urdf``), so many
   via-points sit exactly on a range bound, joints rest over whole chords, and
   from n ~ 256 on consecutive via-points coincide (the problem merges them).
@@ -16,9 +16,11 @@ For each family, class and size it reports the total time, how far above
 ``planner.timing.lower_bound``'s bound for any trajectory through the via-points it is, the median
 optimizer wall time in-process after a warm-up, the solver iterations and
 IPOPT status per NLP start, whether the starts agree (within 0.01 %), and the
-exact feasibility check. Then the paper case (8 via-points, hybrid) with and
-without bounds [3, 5] s, and the growth exponent of the wall time from 64 to
-1024 via-points. Timings on a shared machine vary: compare medians.
+exact feasibility check; with ``--walks K``, a row per walk and then, per
+family, class and size, the median and largest wall time and the largest ratio
+of a walk's wall time to TOPP-RA's. Then the paper case (8 via-points, hybrid)
+with and without bounds [3, 5] s, and the growth exponent of the median wall
+time from 64 to 1024 via-points. Timings on a shared machine vary: compare medians.
 
 ``--end-to-end`` adds ``planner plan`` on the same via-points as a joint-space
 task file (no robot, the same limits), each run a fresh process: the median wall
@@ -32,8 +34,8 @@ its duration. It is not the same problem (no jerk limit, no hybrid ends, a
 path parametrized by a uniform s): a reference for compute time only.
 
     python scripts/bench_scale.py [--sizes 8 16 ... 1024] [--families cubic hybrid]
-                                  [--classes smooth clipped] [--ranges] [--toppra] [--end-to-end]
-                                  [--repeats 3] [--algorithm default]
+                                  [--classes smooth clipped] [--walks 1] [--ranges] [--toppra]
+                                  [--end-to-end] [--repeats 3] [--algorithm default]
 """
 
 from __future__ import annotations
@@ -77,15 +79,25 @@ def clipped_walk(count: int, seed: int) -> np.ndarray:
     return np.clip(random_walk(count, seed), low, high)
 
 
-def task(kind: str, count: int, ranges: bool) -> tuple[np.ndarray, object]:
+#: Seeds of a class's further walks of one size are this far apart (``--walks``).
+WALK_SEED_STEP = 1000
+
+
+def walk_seed(kind: str, count: int, walk: int) -> int:
+    """The seed of walk ``walk`` (0, 1, ...) of ``count`` via-points of class ``kind`` (module docstring)."""
+    return count + (kind == "clipped") + WALK_SEED_STEP * walk
+
+
+def task(kind: str, count: int, ranges: bool, walk: int = 0) -> tuple[np.ndarray, object]:
     """Via-points and limits of one benchmark task (module docstring)."""
     limits = paper.paper_limits()
+    seed = walk_seed(kind, count, walk)
     if kind == "smooth":
-        return random_walk(count, count), limits
+        return random_walk(count, seed), limits
     if ranges:
         low, high = np.deg2rad(PUMA_RANGES_DEG)
         limits = limits.with_overrides(lower=low, upper=high)
-    return clipped_walk(count, count + 1), limits
+    return clipped_walk(count, seed), limits
 
 
 def start_summary(result) -> str:
@@ -157,6 +169,7 @@ def main() -> None:
     parser.add_argument("--sizes", type=int, nargs="+", default=list(SIZES))
     parser.add_argument("--families", nargs="+", default=["cubic", "hybrid"])
     parser.add_argument("--classes", nargs="+", default=list(CLASSES), choices=CLASSES)
+    parser.add_argument("--walks", type=int, default=1, help="walks (seeds) per class and size")
     parser.add_argument("--ranges", action="store_true", help="enforce the PUMA ranges on the clipped class")
     parser.add_argument("--toppra", action="store_true", help="time TOPP-RA on the same via-points (extra [bench])")
     parser.add_argument("--end-to-end", action="store_true", help="time `planner plan` on the same via-points")
@@ -178,33 +191,44 @@ def main() -> None:
               f"feasible {result.feasible}, starts agree {result.starts_agree}")
     peer = " TOPP-RA wall [s] | TOPP-RA duration [s] |" if args.toppra else ""
     plan = " plan wall [s] | setup / optimization / outputs [s] |" if args.end_to_end else ""
-    print("\n| family | class | n | total time [s] | above the lower bound | wall [s] | iterations "
+    print("\n| family | class | n | seed | total time [s] | above the lower bound | wall [s] | iterations "
           f"| starts (iterations, status) | agree | feasible |{peer}{plan}")
-    print("|---|---|---:|---:|---:|---:|---:|---|---|---|" + ("---:|---:|" if args.toppra else "")
+    print("|---|---|---:|---:|---:|---:|---:|---:|---|---|---|" + ("---:|---:|" if args.toppra else "")
           + ("---:|---|" if args.end_to_end else ""))
-    walls: dict[tuple[str, str, int], float] = {}
+    walls: dict[tuple[str, str, int], list[float]] = {}
+    peers: dict[tuple[str, str, int], list[float]] = {}
     for family in args.families:
         for kind in args.classes:
             for n in args.sizes:
-                via, limits = task(kind, n, args.ranges)
-                result, wall = run(TimingProblem(via, family, limits), args.algorithm, args.repeats)
-                walls[family, kind, n] = wall
-                above = result.total_time / time_lower_bound(via, limits) - 1
-                row = (f"| {family} | {kind} | {n} | {result.total_time:.6f} | {100 * above:.1f} % | {wall:.3f} "
-                       f"| {result.solver_iterations} | {start_summary(result)} | {result.starts_agree} "
-                       f"| {result.feasible} |")
-                if args.toppra:
-                    peer_wall, peer_duration = toppra_peer(via, limits, args.repeats)
-                    row += f" {peer_wall:.3f} | {peer_duration:.3f} |"
-                if args.end_to_end:
-                    plan_wall, stages = plan_end_to_end(via, limits, family, args.repeats)
-                    split = " / ".join(f"{stages.get(part, 0.0):.2f}" for part in ("setup", "optimization", "outputs"))
-                    row += f" {plan_wall:.2f} | {split} |"
-                print(row, flush=True)
-    for (family, kind, n), wall in walls.items():
+                for walk in range(args.walks):
+                    via, limits = task(kind, n, args.ranges, walk)
+                    result, wall = run(TimingProblem(via, family, limits), args.algorithm, args.repeats)
+                    walls.setdefault((family, kind, n), []).append(wall)
+                    above = result.total_time / time_lower_bound(via, limits) - 1
+                    row = (f"| {family} | {kind} | {n} | {walk_seed(kind, n, walk)} | {result.total_time:.6f} "
+                           f"| {100 * above:.1f} % | {wall:.3f} | {result.solver_iterations} | {start_summary(result)} "
+                           f"| {result.starts_agree} | {result.feasible} |")
+                    if args.toppra:
+                        peer_wall, peer_duration = toppra_peer(via, limits, args.repeats)
+                        peers.setdefault((family, kind, n), []).append(peer_wall)
+                        row += f" {peer_wall:.3f} | {peer_duration:.3f} |"
+                    if args.end_to_end:
+                        plan_wall, stages = plan_end_to_end(via, limits, family, args.repeats)
+                        split = " / ".join(f"{stages.get(part, 0.0):.2f}"
+                                           for part in ("setup", "optimization", "outputs"))
+                        row += f" {plan_wall:.2f} | {split} |"
+                    print(row, flush=True)
+    if args.walks > 1:
+        print("\n| family | class | n | walks | median wall [s] | largest wall [s] | largest wall / TOPP-RA's |")
+        print("|---|---|---:|---:|---:|---:|---:|")
+        for key, times in walls.items():
+            ratio = max(w / p for w, p in zip(times, peers[key])) if key in peers else math.nan
+            print(f"| {' | '.join(map(str, key))} | {len(times)} | {statistics.median(times):.3f} | {max(times):.3f} "
+                  f"| {ratio:.2f} |")
+    for (family, kind, n), times in walls.items():
         if n == 1024 and (family, kind, 64) in walls:
-            exponent = math.log(wall / walls[family, kind, 64]) / math.log(16)
-            print(f"\n{family}, {kind}: wall time grows like n^{exponent:.2f} from 64 to 1024 via-points")
+            exponent = math.log(statistics.median(times) / statistics.median(walls[family, kind, 64])) / math.log(16)
+            print(f"\n{family}, {kind}: the median wall time grows like n^{exponent:.2f} from 64 to 1024 via-points")
 
 if __name__ == "__main__":
     main()

@@ -296,15 +296,19 @@ def test_a_range_left_next_to_via_points_on_its_bounds_says_why():
 
 
 def test_the_family_the_on_bound_hint_offers_plans_what_hybrid_cannot():
-    """Via-points resting on a range bound: hybrid leaves the range (its knot velocities follow from
-    the durations), the message offers hermite7, and hermite7 (free via-point velocities) plans it
-    within every limit, by dense sampling."""
-    via, limits = clipped_walk(6, 7)
-    task = {"version": 1, "name": "clipped", "waypoints": {"joints_deg": np.rad2deg(via).tolist()},
+    """Two joints rest on a range bound at the one interior via-point, coming from and going to
+    different distances: hybrid cannot stop both there (its knot velocity there is c0(h) D0 + c1(h) D1,
+    linear in the joint's steps D0, D1 with the same c0, c1 > 0 for every joint, and two joints with
+    different D1 / D0 would need c0 = c1 = 0), so it leaves the range; the message offers hermite7,
+    and hermite7 (free via-point velocities) plans it within every limit, by dense sampling."""
+    limits = paper.paper_limits()
+    upper = np.array([90.0, 45.0, 180.0, 180.0, 180.0, 180.0])
+    via = [[0.0] * 6, [90.0, 45.0, 10.0, 10.0, 10.0, 10.0], [30.0, -40.0, 20.0, 20.0, 20.0, 20.0]]
+    task = {"version": 1, "name": "on bounds", "waypoints": {"joints_deg": via},
             "limits": {"velocity_deg_s": np.rad2deg(limits.velocity).tolist(),
                        "acceleration_deg_s2": np.rad2deg(limits.acceleration).tolist(),
                        "jerk_deg_s3": np.rad2deg(limits.jerk).tolist(),
-                       "position_deg": np.rad2deg(np.vstack((limits.lower, limits.upper))).T.tolist()}}
+                       "position_deg": np.column_stack((np.full(6, -180.0), upper)).tolist()}}
     with pytest.raises(InfeasibleError, match="or set trajectory.family: hermite7"):
         plan(parse_task(task))
     result = plan(parse_task({**task, "trajectory": {"family": "hermite7"}}))

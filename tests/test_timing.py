@@ -374,7 +374,8 @@ def test_a_time_limit_must_be_a_positive_number_of_seconds(limit):
 
 def test_the_default_planner_falls_back_to_the_shapes_when_its_nests_end_infeasible():
     """Eight via-points, three on range bounds: the NLP from Cuckoo Search's nests (scaled by a nest)
-    ends infeasible, the NLP from the cheap shapes does not; the default keeps the feasible one."""
+    ends infeasible or short of full convergence far above the NLP from the cheap shapes; the default
+    runs the shapes too and keeps the better."""
     from conftest import clipped_walk
     via, limits = clipped_walk(8, 9)
     problem = TimingProblem(via, "hybrid", limits)
@@ -383,6 +384,8 @@ def test_the_default_planner_falls_back_to_the_shapes_when_its_nests_end_infeasi
     assert result.feasible and result.total_time == pytest.approx(optimize(problem, "nlp").total_time, rel=1e-9)
     if not explored.feasible:  # the case this guards (it was so when written)
         assert result.stop_reason.startswith("the NLP from Cuckoo Search's nests ended infeasible")
+    elif explored.objective > result.objective:  # so it is with IPOPT's alpha_for_y safer-min-dual-infeas
+        assert result.stop_reason.startswith("the NLP from Cuckoo Search's nests did not converge (start nest")
     figures = kinematic_figures(problem.trajectory(result.durations))
     assert figures.violations(limits) == []
 
