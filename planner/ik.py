@@ -22,8 +22,9 @@ the error falls below ``TOLERANCE`` (1e-10 m and rad) in a few iterations.
   picks one per waypoint by dynamic programming over the sequence, minimising
   the sum of the transition costs: the slowest joint's rest-to-rest time
   (``limits.rest_to_rest_time``) between consecutive configurations. A
-  waypoint with a hint has one candidate, the solution seeded by its hint; one
-  whose solutions have more than ``MAX_CANDIDATES`` turn variants is refused.
+  waypoint with a hint has one candidate, the solution seeded by its hint (where
+  that solve stalls, the pose's solution nearest the hint); one whose solutions
+  have more than ``MAX_CANDIDATES`` turn variants is refused.
   With a start configuration (the robot's, before the task) the motion from it
   to the first waypoint counts too; without one, sequences of equal cost (a
   wrist flip moves the wrist joints by the same amounts) are told apart by the
@@ -493,8 +494,7 @@ def _optimal_branches(robot, poses, hints, start, limits, rng, accept, progress)
     per_pose, candidates, owners = [], [], []
     for index, (target, hint) in enumerate(zip(poses, hints)):
         if hint is not None:
-            best = solve_pose(robot, target, np.asarray(hint, dtype=float))
-            found, attempts = ([best] if best.residual <= accept else []), 1
+            found, best, attempts = _hinted(robot, target, np.asarray(hint, dtype=float), limits, rng, accept, index)
         else:
             found, best, attempts = pose_solutions(robot, target, limits, rng, accept=accept)
         if not found:
@@ -521,6 +521,24 @@ def _optimal_branches(robot, poses, hints, start, limits, rng, accept, progress)
         _log_choice("optimal", len(solutions) - 1, solutions[-1])
         previous = q
     return solutions
+
+
+def _hinted(robot, target, hint, limits, rng, accept, index) -> tuple[list[IKSolution], IKSolution, int]:
+    """The solution of pose ``target`` that ``hint`` (nq,) [rad] seeds, as ``pose_solutions`` returns
+    solutions; where the solve from the hint misses the pose (it stalls at a singularity or a range
+    bound on its way), the pose's solution (up to 2 pi turns within the ranges) nearest the hint."""
+    best = solve_pose(robot, target, hint)
+    if best.residual <= accept:
+        return [best], best, 1
+    every, searched, attempts = pose_solutions(robot, target, limits, rng, accept=accept)
+    if not every:
+        return [], min((best, searched), key=lambda s: s.residual), 1 + attempts
+    q, nearest = min(((q, s) for s in every for q in turn_variants(robot, s.q, limits)),
+                     key=lambda pair: float(np.linalg.norm(pair[0] - hint)))
+    log.info("waypoint %d: the solve from its hint missed the pose (residual %.2g m, %.2g deg); the nearest of its "
+             "%d solutions to the hint is taken, %.3g deg from it", index, best.position_error,
+             np.rad2deg(best.orientation_error), len(every), np.rad2deg(np.linalg.norm(q - hint)))
+    return [replace(nearest, q=q)], nearest, 1 + attempts
 
 
 def _log_choice(rule: str, index: int, solution: IKSolution) -> None:

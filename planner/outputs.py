@@ -9,7 +9,10 @@ before any work is done:
   ancestor is not a writable folder: refused.
 * ``DIR`` may be absent (it and its parents are created), empty, or a folder
   the planner wrote: it holds the marker ``.planner-output``, which lists the
-  files published there, and nothing else. Any other folder is refused unless
+  files published there with the size and modification time each had then,
+  and nothing else. A listed file that has changed since (edited, replaced,
+  or a marker copied or written by hand beside other files) is not the
+  planner's. Any other folder is refused unless
   ``force`` is given: then the outputs are moved into it one file at a time
   (each move atomic), replacing files of the same names and keeping every
   other file; a folder where an output file goes is refused (checked before
@@ -116,14 +119,29 @@ def _listing(folder: Path) -> set[str]:
         raise OutputError(f"output folder {folder}: cannot list it ({exc.strerror})") from None
 
 
+def _signature(path: Path) -> list[int] | None:
+    """[size in bytes, modification time in ns] of the file ``path`` (not following a symbolic link), or
+    None where it is absent."""
+    try:
+        found = path.lstat()
+    except FileNotFoundError:
+        return None
+    return [found.st_size, found.st_mtime_ns]
+
+
 def _planner_files(folder: Path) -> set[str] | None:
-    """The files the marker says the planner published in ``folder``, or None without a valid marker."""
+    """The files the marker says the planner published in ``folder`` that are still as published (or
+    gone), or None without a valid marker."""
     try:
         files = json.loads((folder / MARKER).read_text()).get("files")
     except (OSError, ValueError, AttributeError):
         return None
-    plain = isinstance(files, list) and all(isinstance(f, str) and _plain_name(f) for f in files)
-    return set(files) if plain else None  # a marker naming anything else is not the planner's
+    valid = isinstance(files, dict) and all(
+        _plain_name(name) and isinstance(sign, list) and len(sign) == 2
+        and all(isinstance(n, int) and not isinstance(n, bool) for n in sign) for name, sign in files.items())
+    if not valid:
+        return None  # a marker naming anything else is not the planner's
+    return {name for name, sign in files.items() if _signature(folder / name) in (sign, None)}
 
 
 def _plain_name(name: str) -> bool:
@@ -282,7 +300,9 @@ def _stale_staging(place: Path, name: str) -> list[Path]:
 
 
 def _write_marker(staging: Path) -> set[str]:
-    files = sorted(entry.name for entry in staging.iterdir())
+    """Write the marker listing every file in ``staging`` with its ``_signature`` (moves keep both);
+    returns the names."""
+    files = {entry.name: _signature(entry) for entry in sorted(staging.iterdir())}
     (staging / MARKER).write_text(json.dumps({"written_by": "planner", "files": files}) + "\n")
     return set(files)
 

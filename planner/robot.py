@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 import os
 import stat
+import unicodedata
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -40,6 +41,9 @@ from .yaml_input import read_yaml
 MAX_URDF_BYTES = 16 * 2**20
 #: Largest mesh file a URDF may name [bytes]: a detailed industrial-arm link is a few MB.
 MAX_MESH_BYTES = 256 * 2**20
+#: A joint or frame is placed at most this far from its parent [m] (a robot a thousand kilometres long is a
+#: typing error; far beyond it, 1e300, the forward kinematics and the recording's float32 geometry overflow).
+MAX_PLACEMENT_M = 1e6
 _LIMIT_FILE_KEYS = {q.key: q.name for q in LIMITED[1:]}  # acceleration and jerk (URDFs give velocity)
 #: Pinocchio's single-axis revolute joints, the only ones planned (task keys are in degrees).
 _REVOLUTE = ("JointModelRX", "JointModelRY", "JointModelRZ", "JointModelRevoluteUnaligned")
@@ -133,6 +137,7 @@ class Robot:
         if path.stat().st_size > MAX_URDF_BYTES:
             raise RobotFileError(f"cannot load URDF {path}: larger than {MAX_URDF_BYTES >> 20} MiB "
                                  f"(a robot description, its meshes apart, is well under 1 MiB)", path=path)
+        _check_utf8(path)
         with stderr_captured() as parser_log:
             failure: Exception | None
             try:
@@ -181,6 +186,9 @@ class Robot:
         frame_names = [f.name for f in model.frames]
         if tool_frame is None:
             tool_frame = frame_names[-1]
+        if isinstance(tool_frame, str) and not model.existFrame(tool_frame):  # the same name in another Unicode
+            same = [f for f in frame_names if _nfc(f) == _nfc(tool_frame)]  # form (macOS writes e + U+0301 for é)
+            tool_frame = same[0] if len(set(same)) == 1 else tool_frame
         if not isinstance(tool_frame, str) or not model.existFrame(tool_frame):
             raise UnknownFrameError(f"robot {shown(name)} has no frame {shown(tool_frame)}; frames: "
                                     f"{', '.join(frame_names)}", frame=tool_frame, frames=tuple(frame_names))
@@ -213,6 +221,7 @@ class Robot:
                                         f"chain has none", joint=mimics[0])
         if reduced.nq == 0:
             raise UnsupportedRobotError(f"frame {tool_frame!r} of robot {shown(name)} is not moved by any joint")
+        _check_placements(reduced, name, Path(urdf_path))
         extra_limits = {quantity: np.array([values[reduced.names[j]] for j in range(1, reduced.njoints)])
                         for quantity, values in extra_limits.items()}
         velocity = np.where(reduced.velocityLimit > 0, reduced.velocityLimit, np.inf)
@@ -228,6 +237,28 @@ class Robot:
         held = {model.names[j]: float(reference[model.joints[j].idx_q]) for j in locked if model.joints[j].nq == 1}
         return cls(name, reduced, reduced.createData(), tool_frame, _frame_id(reduced, tool_frame), limits,
                    Path(urdf_path), package_dirs, placeholder, missing, held)
+
+
+def _nfc(name: str) -> str:
+    """``name`` in Unicode normal form C (composed characters)."""
+    return unicodedata.normalize("NFC", name)
+
+
+def _check_placements(model: pin.Model, name: str, urdf_path: Path) -> None:
+    """Refuse a joint or frame of ``model`` placed at a non-finite pose or with a coordinate beyond
+    ``MAX_PLACEMENT_M`` from its parent.
+
+    Raises:
+        RobotFileError: naming the joint or frame and the coordinate.
+    """
+    placed = [(f"joint {model.names[j]!r}", model.jointPlacements[j]) for j in range(1, model.njoints)]
+    placed += [(f"frame {frame.name!r}", frame.placement) for frame in model.frames]
+    for what, placement in placed:
+        farthest = float(np.max(np.abs(placement.translation)))
+        if not (farthest <= MAX_PLACEMENT_M and np.all(np.isfinite(placement.rotation))):
+            raise RobotFileError(f"{what} of robot {shown(name)} ({urdf_path}) is placed {farthest:.3g} m along an "
+                                 f"axis from its parent (<origin>); at most {MAX_PLACEMENT_M:.0e} m is taken",
+                                 path=urdf_path)
 
 
 def _locked_configuration(model: pin.Model) -> np.ndarray:
@@ -283,6 +314,26 @@ def urdf_elements(urdf_path: Path, tag: str) -> list:
         return ElementTree.parse(urdf_path).getroot().findall(tag)
     except (OSError, ElementTree.ParseError):
         return []
+
+
+def _check_utf8(path: Path) -> None:
+    """Refuse a URDF that is not UTF-8 text: Pinocchio hands its names to Python as UTF-8 and Rerun reads
+    its mesh paths so (an XML declaration of another encoding, such as ISO-8859-1, is not followed).
+
+    Raises:
+        RobotFileError: naming the first offending byte and its line.
+    """
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise RobotFileError(f"cannot load URDF {path}: cannot read it ({exc.strerror or exc})", path=path) from None
+    try:
+        data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data.count(b"\n", 0, exc.start) + 1
+        raise RobotFileError(f"cannot load URDF {path}: byte 0x{data[exc.start]:02x} on line {line} is not UTF-8; "
+                             f"the planner reads a URDF's names and mesh paths as UTF-8: save it as UTF-8",
+                             path=path) from None
 
 
 def _negative_limit(urdf_path: Path) -> str:

@@ -101,12 +101,13 @@ def float_array(name: str, value) -> np.ndarray:
     """``value`` as a float array.
 
     Raises:
-        InputError: naming ``name``, for text, booleans, None, ragged lists or anything else that is
-            not numbers (NumPy itself would read "0.5" as 0.5, None as nan and True as 1).
+        InputError: naming ``name``, for text, booleans, None, complex numbers, times, ragged lists or
+            anything else that is not real numbers (NumPy itself would read "0.5" as 0.5, None as nan, True
+            as 1 and 1 + 5j as 1).
     """
     try:
         raw = np.asarray(value)
-        if raw.dtype.kind in "USVbM" or (raw.dtype.kind == "O" and any(
+        if raw.dtype.kind in "USVbMmc" or (raw.dtype.kind == "O" and any(
                 item is None or isinstance(item, (str, bytes, bool, np.bool_)) for item in raw.flat)):
             raise TypeError(f"got {shown(value)}")
         return raw.astype(float)

@@ -119,6 +119,20 @@ def test_without_a_start_the_branch_nearest_the_middle_of_the_ranges_is_chosen(p
             [int(np.argmin(np.linalg.norm(candidates - middle, axis=1)))]
 
 
+def test_a_hint_whose_solve_stalls_gives_the_solution_nearest_it():
+    """UR5: the solve seeded by this hint stalls at a range bound (residual 0.32), yet the pose has
+    solutions in range: the one nearest the hint (up to 2 pi turns) is taken, not an 'unreached' error."""
+    ur5 = Robot.from_example_robot_data("ur5", "tool0")
+    pose = pin.SE3(pin.rpy.rpyToMatrix(*np.deg2rad([180, 0, 90])), np.array([0.4, -0.25, 0.35]))
+    hint = np.deg2rad([1.5, -90, 90, -90, -90, 0])
+    assert solve_pose(ur5, pose, hint).residual > 0.1  # the case this guards
+    [solution] = solve_waypoints(ur5, [pose], hints=[hint])
+    assert np.linalg.norm(pose_error(ur5, solution.q, pose)) <= 1e-9
+    every, _, _ = pose_solutions(ur5, pose, ur5.limits, np.random.default_rng(1))
+    nearest = min(np.linalg.norm(q - hint) for s in every for q in turn_variants(ur5, s.q, ur5.limits))
+    assert np.linalg.norm(solution.q - hint) == pytest.approx(nearest, abs=1e-6)
+
+
 def test_hint_of_wrong_length(puma):
     pose = puma.forward_kinematics(np.zeros(6))
     with pytest.raises(InputError, match="waypoint 0: hint has 3 values, robot has 6 joints"):

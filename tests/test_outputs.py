@@ -1,6 +1,7 @@
 """Output folders and files: checked before any work, locked, published in one step, never lose a file."""
 
 import os
+import shutil
 import signal
 import stat
 import subprocess
@@ -383,6 +384,31 @@ def test_python_api_save_follows_the_same_rules(tmp_path, task):
         result.save(tmp_path / "theirs")
     result.save(tmp_path / "theirs", force=True)
     assert (tmp_path / "theirs" / "x").read_text() == "x" and (tmp_path / "theirs" / "summary.json").exists()
+
+
+def test_a_file_the_marker_lists_that_changed_since_is_the_users(tmp_path):
+    """The marker keeps each published file's size and modification time: a file edited since, or one
+    a copied or hand-written marker lists, is not the planner's and is never replaced or removed
+    without force."""
+    out = tmp_path / "out"
+    write_outputs(out, {"a.txt": "1", "b.txt": "1"})
+    write_outputs(out, {"a.txt": "2", "b.txt": "2"})  # unchanged since: the planner's, replaced whole
+    os.utime(out / "b.txt", ns=(0, 0))  # touched by the user (same size, another time)
+    with pytest.raises(OutputError, match=r"did not write \('b.txt'\)"):
+        write_outputs(out, {"a.txt": "3"})
+    write_outputs(out, {"a.txt": "3"}, force=True)  # b.txt is neither the planner's output nor stale
+    assert contents(out) == {"a.txt": "3", "b.txt": "2", MARKER: (out / MARKER).read_text()}
+
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "a.txt").write_text("the user's")
+    shutil.copy(out / MARKER, other / MARKER)  # a marker copied beside a file of a listed name
+    with pytest.raises(OutputError, match=r"did not write \('a.txt'\)"):
+        write_outputs(other, {"a.txt": "4"})
+    (other / MARKER).write_text('{"written_by": "planner", "files": ["a.txt"]}')  # by hand, without signatures
+    with pytest.raises(OutputError, match="did not write"):
+        write_outputs(other, {"a.txt": "4"})
+    assert (other / "a.txt").read_text() == "the user's"
 
 
 def test_a_forged_marker_cannot_reach_outside_the_folder(tmp_path):

@@ -302,6 +302,43 @@ ONE_JOINT = """<robot name="r"><link name="base"/><link name="l1"/><link name="t
   <joint name="{fixed}" type="fixed"><parent link="l1"/><child link="tool"/><origin xyz="0.3 0 0"/></joint></robot>"""
 
 
+@pytest.mark.parametrize("declaration", ["", '<?xml version="1.0" encoding="ISO-8859-1"?>\n'])
+def test_a_urdf_that_is_not_utf8_is_named_with_its_byte_and_line(tmp_path, declaration):
+    """A Latin-1 joint name (valid XML under its declaration): Pinocchio's names would not decode."""
+    urdf = tmp_path / "r.urdf"
+    urdf.write_bytes((declaration + ONE_JOINT.format(lower=-3, upper=3, fixed="tool")).encode("utf-8")
+                     .replace(b'name="j1"', b'name="j\xe9"'))
+    with pytest.raises(RobotFileError, match=rf"URDF .*r.urdf: byte 0xe9 on line {3 if declaration else 2} is not "
+                                             r"UTF-8.*save it as UTF-8"):
+        Robot.from_urdf(urdf, "tool")
+    urdf.write_bytes(urdf.read_bytes().replace(b"\xe9", "\u00e9".encode("utf-8")))  # the same name in UTF-8
+    assert "j\u00e9" in Robot.from_urdf(urdf, "tool").joint_names
+
+
+@pytest.mark.parametrize("origin, what", [('<origin xyz="0.3 0 0"/>', None),
+                                           ('<origin xyz="0 -2e6 0"/>', r"frame 'tool' .* placed 2e\+06 m"),
+                                           ('<origin xyz="1e300 0 0"/>', r"frame 'tool' .* placed 1e\+300 m")])
+def test_a_frame_placed_beyond_a_thousand_kilometres_is_refused(tmp_path, origin, what):
+    """Far beyond, the forward kinematics and the recording's float32 geometry would overflow."""
+    urdf = tmp_path / "r.urdf"
+    urdf.write_text(ONE_JOINT.format(lower=-3, upper=3, fixed="tool").replace('<origin xyz="0.3 0 0"/>', origin))
+    if what is None:
+        assert Robot.from_urdf(urdf, "tool").joint_names == ["j1"]
+        return
+    with pytest.raises(RobotFileError, match=what + r" along an axis from its parent \(<origin>\); at most 1e\+06"):
+        Robot.from_urdf(urdf, "tool")
+
+
+def test_a_tool_frame_named_in_another_unicode_form_is_found(tmp_path):
+    """'café' with a composed é in the URDF, asked for as e + U+0301 (as macOS writes names): the same name."""
+    urdf = tmp_path / "r.urdf"
+    urdf.write_text(ONE_JOINT.format(lower=-3, upper=3, fixed="tool").replace('"tool"', '"caf\u00e9"'),
+                    encoding="utf-8")
+    assert Robot.from_urdf(urdf, "cafe\u0301").tool_frame == "caf\u00e9"
+    with pytest.raises(UnknownFrameError, match="has no frame 'cafe'"):
+        Robot.from_urdf(urdf, "cafe")
+
+
 def test_a_fixed_joint_named_as_its_link_and_a_one_joint_arm_plan(tmp_path):
     """A fixed joint named like its child link (common in URDFs): the tool frame is the link's. A one-joint
     arm reaches Cartesian waypoints (the binding gives its Jacobian as a vector)."""

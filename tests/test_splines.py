@@ -263,6 +263,10 @@ def test_bad_input_raises_clear_error(via, durations, message):
     (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate(np.nan), "times is nan, not a finite"),
     (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate(None), "times must be numeric"),
     (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate("0.5"), "times must be numeric"),
+    # complex numbers and times: numpy would drop the imaginary part, or read a timedelta as a count
+    (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate(1 + 5j), r"times must be numeric .*1\+5j"),
+    (lambda via: get_family("hybrid").build(via + 3j, [1, 1, 1, 1]), "via_points must be numeric"),
+    (lambda via: get_family("hybrid").build(via, np.array([1, 1, 1, 1], dtype="m8[s]")), "durations must be numeric"),
     (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate(True), "times must be numeric"),
     (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).states(np.inf), "times is inf"),
     (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate(np.zeros((2, 2))), r"got shape \(2, 2\)"),
