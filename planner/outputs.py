@@ -121,10 +121,10 @@ def _listing(folder: Path) -> set[str]:
 
 def _signature(path: Path) -> list[int] | None:
     """[size in bytes, modification time in ns] of the file ``path`` (not following a symbolic link), or
-    None where it is absent."""
+    None where it is absent (or its name cannot be, being too long)."""
     try:
         found = path.lstat()
-    except FileNotFoundError:
+    except OSError:
         return None
     return [found.st_size, found.st_mtime_ns]
 

@@ -129,12 +129,29 @@ class PiecewisePolynomial(ReadOnlyArrays):
         """
         if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or order < 0:
             raise InputError(f"the derivative order must be a whole number >= 0, got {order!r}")
+        return self._derivatives(times, (int(order),))[0]
+
+    def _derivatives(self, times, orders: tuple[int, ...]) -> np.ndarray:
+        """(len(orders), N, J) the derivatives of each order at ``times`` [s] (clamped to [0, T]).
+
+        Each sample's segment and local time are found once, and segments of each degree
+        (``segment_degrees``: a hybrid's cubic interior, its 7th-order ends) are evaluated by
+        Horner's rule on their own coefficients only, not on the zeros padding them to the
+        family's highest degree (the same values: c + 0 x is exactly c).
+        """
         times = np.clip(np.atleast_1d(checked_times(times)), 0.0, self.total_time)
         knots = self.knot_times
         segment = np.clip(np.searchsorted(knots, times, side="right") - 1, 0, self.segment_count - 1)
         tau = times - knots[segment]
-        coefficients = derivative_coefficients(self.coefficients, order)[segment]  # (N, J, k+1)
-        return polyval(coefficients, tau[:, None, None])[..., 0]
+        values = np.empty((len(orders), len(times), self.joint_count))
+        degree_of = np.asarray(self.segment_degrees)[segment]
+        for degree in np.unique(degree_of).tolist():
+            chosen = degree_of == degree
+            coefficients = self.coefficients[segment[chosen], :, :degree + 1]  # (M, J, degree + 1)
+            x = tau[chosen][:, None, None]
+            for k, order in enumerate(orders):
+                values[k, chosen] = polyval(derivative_coefficients(coefficients, order), x)[..., 0]
+        return values
 
     def sample_times(self, rate_hz: float) -> np.ndarray:
         """(N,) times [s] at ``rate_hz`` [Hz] from 0 to T inclusive (T appended when the rate misses it).
@@ -165,7 +182,7 @@ class PiecewisePolynomial(ReadOnlyArrays):
 
     def states(self, times) -> np.ndarray:
         """(4, N, J) position [rad], velocity [rad/s], acceleration [rad/s^2] and jerk [rad/s^3] at ``times``."""
-        return np.stack([self.evaluate(times, order) for order in range(4)])
+        return self._derivatives(times, (0, 1, 2, 3))
 
 
 def checked_times(times) -> np.ndarray:
