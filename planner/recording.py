@@ -235,11 +235,13 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
     trajectory: PiecewisePolynomial = result.trajectory
     names = result.joint_names
     rate_hz = rate_hz or result.task.sample_rate_hz
-    times, values = trajectory.sample(rate_hz)
+    times = trajectory.sample_times(rate_hz)
+    positions = trajectory.evaluate(times)  # every sample: the robot's motion, and what replay --check reads
     time_index = [rr.TimeColumn("time", duration=times)]
-    plot_times, plot_values = times, values
     if len(times) > PROFILE_SAMPLES:  # what a person looks at: the trajectory's own values, at fewer times
         plot_times, plot_values = trajectory.sample(PROFILE_SAMPLES / trajectory.total_time)
+    else:
+        plot_times, plot_values = times, trajectory.states(times)
     plot_index = [rr.TimeColumn("time", duration=plot_times)]
     rec = rr.RecordingStream(APPLICATION_ID, recording_id=f"{result.task.name}-{id(result)}")
     # Into memory, then one ordinary write: Rerun's own file sink left the plan hanging for good (deaf
@@ -252,7 +254,7 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
         joints=", ".join(names)))
     definition = trajectory_definition(trajectory, result.limits, names)
     rec.log(_DEFINITION, rr.AnyValues(planner_definition=json.dumps(definition)), static=True)
-    rec.send_columns(_SAMPLES, indexes=time_index, columns=rr.Scalars.columns(scalars=values[0]))
+    rec.send_columns(_SAMPLES, indexes=time_index, columns=rr.Scalars.columns(scalars=positions))
     rec.log(_SUMMARY, rr.TextDocument(plan_summary(result), media_type=rr.MediaType.MARKDOWN), static=True)
 
     # Each joint's series carries its name and colour in every plot; its limits and via-points share both,
@@ -288,7 +290,7 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
                                         axis_y=rrb.ScalarAxis(range=_symmetric_range(torques, torque_limit))))
     summary = rrb.TextDocumentView(origin=_SUMMARY, name="summary")
     if result.robot is not None:
-        eye = _log_robot(rec, result, times, values[0])
+        eye = _log_robot(rec, result, times, positions)
         robot_view = rrb.Spatial3DView(origin="/", name="robot", contents=[  # visual geometry only
             "/robot/**", "/scene/**", "- /robot/**/collision_geometries/**"], eye_controls=eye)
         layout = rrb.Horizontal(rrb.Vertical(robot_view, summary, row_shares=[3, 1]), rrb.Vertical(*plots),

@@ -14,8 +14,8 @@ Tasks, for 6 joints under Table III limits, no bounds, objective ``time``:
 
 For each family, class and size it reports the total time, how far above
 ``planner.timing.lower_bound``'s bound for any trajectory through the via-points it is, the median
-optimizer wall time in-process after a warm-up, the solver iterations and
-IPOPT status per NLP start, whether the starts agree (within 0.01 %), and the
+optimizer wall time in-process after a warm-up (segments of at least 1 ms, as a task
+file's default), the solver iterations and IPOPT status per NLP start, whether the starts agree (within 0.01 %), and the
 exact feasibility check; with ``--walks K``, a row per walk and then, per
 family, class and size, the median and largest wall time and the largest ratio
 of a walk's wall time to TOPP-RA's. Then the paper case (8 via-points, hybrid)
@@ -54,6 +54,7 @@ import numpy as np
 import yaml
 
 from planner import paper
+from planner.task import Task
 from planner.timing import TimingProblem, optimize
 from planner.timing.lower_bound import time_lower_bound
 
@@ -79,6 +80,10 @@ def clipped_walk(count: int, seed: int) -> np.ndarray:
     return np.clip(random_walk(count, seed), low, high)
 
 
+#: The shortest segment [s] of the in-process runs: a task file's default (``trajectory.min_segment_s``), so
+#: that they solve the problem ``planner plan`` solves (the floor is never reached at these optima, but
+#: it bounds the NLP's variables, and IPOPT's path, and with it its iterations, depends on it).
+MIN_SEGMENT_S = Task.min_segment_s
 #: Seeds of a class's further walks of one size are this far apart (``--walks``).
 WALK_SEED_STEP = 1000
 
@@ -202,7 +207,8 @@ def main() -> None:
             for n in args.sizes:
                 for walk in range(args.walks):
                     via, limits = task(kind, n, args.ranges, walk)
-                    result, wall = run(TimingProblem(via, family, limits), args.algorithm, args.repeats)
+                    problem = TimingProblem(via, family, limits, min_duration=MIN_SEGMENT_S)
+                    result, wall = run(problem, args.algorithm, args.repeats)
                     walls.setdefault((family, kind, n), []).append(wall)
                     above = result.total_time / time_lower_bound(via, limits) - 1
                     row = (f"| {family} | {kind} | {n} | {walk_seed(kind, n, walk)} | {result.total_time:.6f} "
