@@ -3,9 +3,11 @@
 Exit codes: 0 success, 2 any ``PlannerError`` (bad input, an infeasible task, an
 unusable output path, a recording or viewer that fails), 1 an internal error or a
 failed ``replay --check``, 130 on Ctrl-C, 143 on SIGTERM. Errors
-print one line on stderr. Output paths are checked before any work
-(``planner.outputs``); the heavy modules are imported only once the signal
-handlers are in place, so an interruption at any moment is one line too.
+print one line on stderr. What cannot be printed (stdout or stderr closed, a pipe
+closed early, a full device) is dropped: the exit code still says how the command
+ended. Output paths are checked before any work (``planner.outputs``); the heavy
+modules are imported only once the signal handlers are in place, so an
+interruption at any moment is one line too.
 """
 
 from __future__ import annotations
@@ -263,9 +265,7 @@ def entry() -> None:
     Ctrl-C landed in code a library ran through ``PyRun_String`` during an import, CPython remembers
     it as unhandled although ``main`` caught it, and under ``python -m`` then ends the process by
     SIGINT instead of with exit code 130 (1 run in 3 with Ctrl-C 0.3 s after the start)."""
-    for stream in (sys.stdout, sys.stderr):  # a path the terminal's encoding cannot show is shown escaped
-        if hasattr(stream, "reconfigure"):
-            stream.reconfigure(errors="backslashreplace")
+    _tolerant_standard_streams()
     code = main(keep_signal_handlers=True)
     for number in (signal.SIGINT, signal.SIGTERM):
         signal.signal(number, signal.SIG_IGN)
@@ -274,6 +274,61 @@ def entry() -> None:
         sys.stderr.flush()
         os._exit(code)
     sys.exit(code)
+
+
+class _Tolerant:
+    """A standard stream that drops what cannot be written (a pipe closed early, ``>/dev/full``):
+    printing is the command's report, never its work. After the first failure the descriptor is
+    pointed at /dev/null, so that the interpreter's own flush at exit fails no more (it would set
+    exit code 120)."""
+
+    def __init__(self, stream):
+        self._stream = stream
+
+    def write(self, text: str) -> int:
+        try:
+            return self._stream.write(text)
+        except (OSError, ValueError):
+            self._drop()
+            return len(text)
+
+    def flush(self) -> None:
+        try:
+            self._stream.flush()
+        except (OSError, ValueError):
+            self._drop()
+
+    def _drop(self) -> None:
+        try:
+            sink = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(sink, self._stream.fileno())
+            os.close(sink)
+        except (OSError, ValueError):
+            pass
+
+    def __getattr__(self, name: str):
+        return getattr(self._stream, name)
+
+
+def _tolerant_standard_streams() -> None:
+    """Make stdout and stderr safe to print to (``_Tolerant``), a path the terminal's encoding cannot
+    show printed escaped. A closed descriptor (``>&-``) is opened on /dev/null first: else the next
+    file the command opens would take its number, and what is printed would land in it."""
+    for fd, name in ((1, "stdout"), (2, "stderr")):
+        try:
+            os.fstat(fd)
+        except OSError:
+            sink = os.open(os.devnull, os.O_WRONLY)
+            if sink != fd:
+                os.dup2(sink, fd)
+                os.close(sink)
+            setattr(sys, name, open(fd, "w", encoding="utf-8", closefd=False))
+        stream = getattr(sys, name)
+        if stream is None:
+            continue
+        if hasattr(stream, "reconfigure"):
+            stream.reconfigure(errors="backslashreplace")
+        setattr(sys, name, _Tolerant(stream))
 
 
 def _printable(text: str) -> str:

@@ -144,6 +144,18 @@ def _planner_files(folder: Path) -> set[str] | None:
     return {name for name, sign in files.items() if _signature(folder / name) in (sign, None)}
 
 
+def _older_marker(folder: Path) -> bool:
+    """Whether ``folder``'s marker is one an older planner wrote: its files a list of names, without the
+    sizes and times that tell the planner's files from a user's."""
+    try:
+        marker = json.loads((folder / MARKER).read_text())
+    except (OSError, ValueError):
+        return False
+    files = marker.get("files") if isinstance(marker, dict) else None
+    return marker.get("written_by") == "planner" and isinstance(files, list) and all(
+        isinstance(name, str) and _plain_name(name) for name in files)
+
+
 def _plain_name(name: str) -> bool:
     """A file name of a folder's own: no separator, not '.' or '..', not hidden, printable."""
     return (name not in ("", ".", "..") and "/" not in name and "\\" not in name and not name.startswith(".")
@@ -182,6 +194,10 @@ def _check_folder(folder: Path, force: bool) -> tuple[Path, bool]:
     owned = _planner_files(folder)  # None: no marker, or a marker that is not the planner's (a folder, say)
     foreign = present - (owned or set()) - ({MARKER} if owned is not None else set())
     if foreign and not force:
+        if owned is None and _older_marker(folder):
+            raise OutputError(f"output folder {folder} was written by an older version of the planner, whose marker "
+                              f"({MARKER}) does not record what it wrote; give a new folder, or add --force to "
+                              f"write into it (files of the same names are replaced, others kept)")
         names = ", ".join(sorted(foreign)[:5]) + (", ..." if len(foreign) > 5 else "")
         raise OutputError(f"output folder {folder} holds files the planner did not write ({shown(names)}); "
                           f"give an empty or new folder, or add --force to write into it (files of the same "

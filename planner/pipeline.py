@@ -19,7 +19,7 @@ from .cartesian_path import StraightPath, follow_straight_lines, tool_deviation
 from .concurrency import WarmWorkers, WorkerLost, map_forked
 from .dynamics import RobotLimitOutcome, joint_torques, meet_robot_limits, torque_limits
 from .errors import IKError, InfeasibleError, InputError, MissingLimitError, OutputError, PlannerError, TaskError
-from .export import coefficients_document, write_json, write_trajectory_csv
+from .export import coefficients_document, json_ready, write_json, write_trajectory_csv
 from .ik import IKSolution, pose_from_position_quaternion, solve_waypoints
 from .kinematics import KinematicFigures, Violation, kinematic_figures
 from .limits import FEASIBILITY_TOLERANCE, LIMITED, QUANTITIES, JointLimits, in_degrees, in_degrees_apart
@@ -113,14 +113,15 @@ class PlanResult:
         return list(self.limits.names)
 
     def summary(self) -> dict:
-        """The ``summary.json`` document (degrees for angles, seconds for time)."""
+        """The ``summary.json`` document (degrees for angles, seconds for time), as plain JSON values:
+        lists, floats of ``SUMMARY_DIGITS`` significant digits, null for an absent (infinite) limit."""
         ratios = self.figures.ratios(self.limits)
         result = self.optimization
         to_deg = np.rad2deg
 
         def per_quantity_deg(table):
             return {q.key: to_deg(table[d]) for d, q in enumerate(LIMITED)}
-        return {
+        return json_ready({
             "task": self.task.name,
             "family": self.task.family,
             "joint_names": self.joint_names,
@@ -149,7 +150,7 @@ class PlanResult:
             "sample_rate_hz": self.task.sample_rate_hz,
             "timings_s": self.timings_s,
             **self._robot_summary(),
-        }
+        }, SUMMARY_DIGITS)
 
     def _robot_summary(self) -> dict:
         if self.robot is None:

@@ -161,11 +161,15 @@ class PiecewisePolynomial(ReadOnlyArrays):
         """
         if not positive_finite(rate_hz):
             raise InputError(f"sample rate must be a number > 0 Hz, got {shown(rate_hz)}")
-        if self.total_time * rate_hz >= MAX_SAMPLES:
+        span = self.total_time * rate_hz
+        if span >= MAX_SAMPLES:  # counted below: the sample at t = 0 and the end time one more
             raise InputError(f"sampling the {self.total_time:.6g} s trajectory at {rate_hz:g} Hz makes "
-                             f"{self.total_time * rate_hz:.3g} samples, above the cap of {MAX_SAMPLES:,}")
-        count = int(np.floor(self.total_time * rate_hz + 1e-9)) + 1
+                             f"{span + 1:.3g} samples, above the cap of {MAX_SAMPLES:,}")
+        count = int(np.floor(span + 1e-9)) + 1
         times = np.arange(count) / rate_hz
+        if count == MAX_SAMPLES and times[-1] < self.total_time - 1e-12:
+            raise InputError(f"sampling the {self.total_time:.6g} s trajectory at {rate_hz:g} Hz makes "
+                             f"{MAX_SAMPLES + 1:,} samples (with its end time), above the cap of {MAX_SAMPLES:,}")
         if times[-1] < self.total_time - 1e-12:
             times = np.append(times, self.total_time)
         return times

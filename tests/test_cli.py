@@ -240,3 +240,24 @@ def test_a_successful_plan_says_nothing_on_stderr_even_when_matplotlib_cannot_ca
                            str(tmp_path / "out"), "--quiet"], capture_output=True, text=True, env=environment,
                           timeout=120)
     assert (done.returncode, done.stderr, done.stdout) == (0, "", "")
+
+
+@pytest.mark.parametrize("redirect, code", [(">&-", 0), ("2>&-", 0), ("| head -c 10 >/dev/null", 0),
+                                            (">/dev/full", 0), ("MISSING 2>/dev/full", 2)])
+def test_what_cannot_be_printed_is_dropped_and_the_exit_code_stands(tmp_path, redirect, code):
+    """stdout or stderr closed, a pipe closed early, a full device: the plan is written and its exit code
+    is its own (each was 'internal error', exit 1); a refused task with stderr full is still exit 2."""
+    import shlex
+    import subprocess
+    import sys
+
+    task = str(tmp_path / "missing.yaml") if redirect.startswith("MISSING") else str(small_task(tmp_path))
+    command = (f"{shlex.quote(sys.executable)} -m planner.cli plan {shlex.quote(task)} --out out "
+               f"{redirect.removeprefix('MISSING ')}; echo \"exit ${{PIPESTATUS[0]}}\" >&3")
+    done = subprocess.run(["bash", "-c", f"exec 3>{shlex.quote(str(tmp_path / 'code'))}; {command}"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120)
+    assert (tmp_path / "code").read_text() == f"exit {code}\n", done.stderr
+    assert "error" not in done.stderr and "Traceback" not in done.stderr
+    written = sorted(p.name for p in (tmp_path / "out").iterdir()) if code == 0 else []
+    assert written == ([] if code else [".planner-output", "coefficients.json", "profiles.png", "summary.json",
+                                        "trajectory.csv", "trajectory.rrd"])

@@ -410,3 +410,14 @@ def test_a_writer_killed_from_outside_is_an_output_error_and_nothing_is_publishe
             with output_folder(tmp_path / "out", files=OUTPUT_FILES) as staging:
                 result.write(staging, writers=writers)
     assert list(tmp_path.iterdir()) == []  # no staging folder, no half-written output
+
+
+def test_the_summary_is_the_summary_json_document(tmp_path):
+    """summary() gives plain JSON values, as written: json.dumps took numpy arrays for an error."""
+    result = plan(parse_task({"version": 1, "name": "two", "waypoints": {"joints_deg": [[0, 0], [40, -20]]},
+                              "limits": {"velocity_deg_s": [60, 60], "acceleration_deg_s2": [120, 120],
+                                         "jerk_deg_s3": [600, 600]}}))
+    result.save(tmp_path / "out")
+    written = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert json.loads(json.dumps(result.summary())) == written
+    assert written["limits"]["position_deg"] == {"lower": [None, None], "upper": [None, None]}  # no ranges: null

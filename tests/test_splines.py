@@ -367,3 +367,16 @@ def test_durations_of_no_physical_size_are_refused_by_name_in_every_family(famil
     if family == "quintic":
         with pytest.raises(InputError, match="physical size"):
             spline.build_batch(via, h[None])
+
+
+def test_sample_times_never_exceed_their_cap():
+    """With the sample at t = 0 and the end time appended, a rate just under the cap's made one sample too many."""
+    from planner.splines import MAX_SAMPLES
+    trajectory = get_family("hybrid").build(np.deg2rad([[0.0], [40.0], [90.0]]), [1.0, 0.7, 0.9, 1.3])
+    for count in (MAX_SAMPLES - 2, MAX_SAMPLES - 1.5, MAX_SAMPLES - 1, MAX_SAMPLES - 0.5):
+        rate = count / trajectory.total_time
+        try:
+            assert len(trajectory.sample_times(rate)) <= MAX_SAMPLES
+        except InputError as exc:
+            assert f"above the cap of {MAX_SAMPLES:,}" in str(exc)
+    assert len(trajectory.sample_times((MAX_SAMPLES - 2) / trajectory.total_time)) == MAX_SAMPLES - 1  # T on the grid
