@@ -5,7 +5,7 @@ from hypothesis import strategies as st
 
 from conftest import clipped_walk
 from planner import InfeasibleError, InputError, JointLimits, SettingError, get_family, kinematic_figures, paper
-from planner.limits import FEASIBILITY_TOLERANCE, in_degrees_apart
+from planner.limits import FEASIBILITY_TOLERANCE, in_degrees_apart, time_scale_factor
 from planner.timing import OPTIMIZERS, TimingProblem, cuckoo_search, optimize
 
 
@@ -578,3 +578,15 @@ def test_duration_bounds_beyond_any_robot_are_refused_by_name(keywords, message,
 def test_the_shortest_allowed_bounds_are_infeasible_by_name_not_by_a_numerical_failure():
     with pytest.raises(InfeasibleError, match=r"infeasible even with every duration at h_max = 1e-06 s"):
         TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG[:4]), "hybrid", paper.paper_limits(), bounds=(1e-6, 1e-6))
+
+
+def test_bounds_a_hair_too_short_say_by_how_much_the_limit_is_exceeded():
+    """1e-9 below the shortest feasible uniform duration, the extreme and the limit print alike: the
+    message gives their ratio (sweep 10)."""
+    via, limits = np.deg2rad(paper.VIA_POINTS_DEG[:4]), paper.paper_limits()
+    segments = get_family("hybrid").segment_count(len(via))
+    shortest = time_scale_factor(kinematic_figures(get_family("hybrid").build(via, np.ones(segments))).ratios(limits))
+    h = shortest * (1 - 1e-9)
+    with pytest.raises(InfeasibleError, match=r"limit [0-9.]+ deg/s\S* \(1\.00000000[1-3] times it\)"):
+        TimingProblem(via, "hybrid", limits, bounds=(h, h))
+    TimingProblem(via, "hybrid", limits, bounds=(shortest, shortest))  # the shortest itself is feasible

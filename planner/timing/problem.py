@@ -185,7 +185,8 @@ class TimingProblem:
             excess = Violation(self.limits.names[j], j, QUANTITIES[d], d + 1, float(ratios[d, j]) * limit, limit)
             raise InfeasibleError(
                 f"infeasible even with every duration at h_max = {self.bounds[1]:g} s: joint {excess.joint} "
-                f"{excess.quantity} reaches {in_degrees(excess.value, d + 1)}, limit {in_degrees(limit, d + 1)}",
+                f"{excess.quantity} reaches {in_degrees(excess.value, d + 1)}, limit {in_degrees(limit, d + 1)} "
+                f"({ratios[d, j]:.10g} times it)",
                 violation=excess)
 
     # ------------------------------------------------------------------ search space
