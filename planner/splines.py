@@ -96,8 +96,14 @@ class PiecewisePolynomial(ReadOnlyArrays):
     def segment_degrees(self) -> list[int]:
         """(S,) the polynomial degree of each segment: its highest power with a non-zero coefficient
         in any joint (the array is padded with zeros to the family's highest degree)."""
+        return self._degrees().tolist()
+
+    def _degrees(self) -> np.ndarray:
+        """``segment_degrees`` as an array (S,), found without a loop over segments (``evaluate`` needs
+        them at every call)."""
         nonzero = np.any(self.coefficients != 0.0, axis=1)  # (S, k+1)
-        return [int(np.flatnonzero(row).max()) if row.any() else 0 for row in nonzero]
+        highest = nonzero.shape[1] - 1 - np.argmax(nonzero[:, ::-1], axis=1)
+        return np.where(nonzero.any(axis=1), highest, 0)
 
     @property
     def joint_count(self) -> int:
@@ -144,7 +150,7 @@ class PiecewisePolynomial(ReadOnlyArrays):
         segment = np.clip(np.searchsorted(knots, times, side="right") - 1, 0, self.segment_count - 1)
         tau = times - knots[segment]
         values = np.empty((len(orders), len(times), self.joint_count))
-        degree_of = np.asarray(self.segment_degrees)[segment]
+        degree_of = self._degrees()[segment]
         for degree in np.unique(degree_of).tolist():
             chosen = degree_of == degree
             coefficients = self.coefficients[segment[chosen], :, :degree + 1]  # (M, J, degree + 1)
