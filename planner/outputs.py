@@ -129,17 +129,22 @@ def _signature(path: Path) -> list[int] | None:
     return [found.st_size, found.st_mtime_ns]
 
 
+def _marker(folder: Path) -> dict:
+    """``folder``'s marker (a planner's holds an object); empty where there is none or it cannot be read."""
+    try:
+        marker = json.loads((folder / MARKER).read_text())
+    except (OSError, ValueError):
+        return {}
+    return marker if isinstance(marker, dict) else {}
+
+
 def _planner_files(folder: Path) -> set[str] | None:
     """The files the marker says the planner published in ``folder`` that are still as published (or
     gone), or None without a valid marker."""
-    try:
-        files = json.loads((folder / MARKER).read_text()).get("files")
-    except (OSError, ValueError, AttributeError):
-        return None
-    valid = isinstance(files, dict) and all(
-        _plain_name(name) and isinstance(sign, list) and len(sign) == 2
-        and all(isinstance(n, int) and not isinstance(n, bool) for n in sign) for name, sign in files.items())
-    if not valid:
+    files = _marker(folder).get("files")
+    if not isinstance(files, dict) or not all(
+            _plain_name(name) and isinstance(sign, list) and len(sign) == 2
+            and all(isinstance(n, int) and not isinstance(n, bool) for n in sign) for name, sign in files.items()):
         return None  # a marker naming anything else is not the planner's
     return {name for name, sign in files.items() if _signature(folder / name) in (sign, None)}
 
@@ -147,11 +152,8 @@ def _planner_files(folder: Path) -> set[str] | None:
 def _older_marker(folder: Path) -> bool:
     """Whether ``folder``'s marker is one an older planner wrote: its files a list of names, without the
     sizes and times that tell the planner's files from a user's."""
-    try:
-        marker = json.loads((folder / MARKER).read_text())
-    except (OSError, ValueError):
-        return False
-    files = marker.get("files") if isinstance(marker, dict) else None
+    marker = _marker(folder)
+    files = marker.get("files")
     return marker.get("written_by") == "planner" and isinstance(files, list) and all(
         isinstance(name, str) and _plain_name(name) for name in files)
 

@@ -408,6 +408,10 @@ def test_a_file_the_marker_lists_that_changed_since_is_the_users(tmp_path):
     (other / MARKER).write_text('{"written_by": "planner", "files": ["a.txt"]}')  # an older planner's, or by hand
     with pytest.raises(OutputError, match="written by an older version of the planner.*--force"):
         write_outputs(other, {"a.txt": "4"})
+    for text in ("[1, 2]", '"files"', "null"):  # a marker that holds no object is nobody's
+        (other / MARKER).write_text(text)
+        with pytest.raises(OutputError, match="did not write"):
+            write_outputs(other, {"a.txt": "4"})
     assert (other / "a.txt").read_text() == "the user's"
 
 
