@@ -28,6 +28,11 @@ none does. The margin covers what lies between samples. Where a round's
 via-points cannot be timed, the intervals of largest joint change are bisected by
 IK alone (``_name_jump``): a motion that jumps (a singularity on the line) is
 then named as the segment's error rather than the timing's.
+
+``track_straight_lines`` finds, by IK continuation along the lines, the
+configurations in which the joints arrive at each waypoint from a given first
+one: a branch rule may pick, at a waypoint, a solution that the line from the
+previous one does not reach, which no insertion of poses can then follow.
 """
 
 from __future__ import annotations
@@ -336,3 +341,47 @@ def _check_continuous(robot: Robot, poses: list[pin.SE3], segment: int, fraction
                           f"there: {_why_not_followed(robot, before, after)}", waypoint=segment)
         mid = (low + high) / 2
         q = _pose_between(robot, poses, segment, low, high, before, after)
+
+
+#: Steps per segment that ``track_straight_lines`` starts with (and never exceeds in length).
+TRACK_STEPS = 32
+#: The largest joint change [rad] of one step of ``track_straight_lines``: a step beyond it is halved.
+TRACK_STEP_RAD = np.deg2rad(5.0)
+
+
+def track_straight_lines(robot: Robot, poses: list[pin.SE3], first: np.ndarray,
+                         kept: list[np.ndarray | None]) -> np.ndarray | None:
+    """Waypoint configurations (n, J) [rad] joined by joint motions that follow the straight lines,
+    from ``first`` [rad] at waypoint 0, or None where the lines cannot be followed from there.
+
+    IK continuation: along each segment, the pose a step further (at most 1 / ``TRACK_STEPS``
+    of it) is solved from the last configuration and taken on the 2 pi turns nearest it; a step
+    that misses the pose within the ranges, or moves a joint by more than ``TRACK_STEP_RAD``, is halved,
+    down to ``MIN_FRACTION`` (the line then runs into a singularity or a range bound from this
+    branch: None). The configuration reached at a waypoint is the next segment's start; where
+    ``kept[i]`` holds one (a hinted waypoint's), the line must arrive at it (up to 2 pi turns), or
+    None. The IK sequences of both branch rules pick each waypoint's solution by the joint motion
+    between waypoints, and may pick one that the line from the previous waypoint does not reach.
+    """
+    q = np.asarray(first, dtype=float)
+    reached = [q]
+    for segment in range(len(poses) - 1):
+        u, step = 0.0, 1.0 / TRACK_STEPS
+        while u < 1.0:
+            step = min(step, 1.0 - u)
+            target = interpolate_pose(poses[segment], poses[segment + 1], u + step)
+            solution = solve_pose(robot, target, q)
+            following = nearest_turn(robot, solution.q, q)
+            if solution.residual > 1e-9 or np.abs(following - q).max() > TRACK_STEP_RAD:
+                if step < MIN_FRACTION:
+                    return None
+                step /= 2
+                continue
+            q, u, step = following, u + step, min(2 * step, 1.0 / TRACK_STEPS)
+        required = kept[segment + 1]
+        if required is not None:
+            if np.abs(nearest_turn(robot, q, required) - required).max() > JUMP_RAD:
+                return None
+            q = np.asarray(required, dtype=float)
+        reached.append(q)
+    return np.array(reached)

@@ -541,6 +541,26 @@ def _hinted(robot, target, hint, limits, rng, accept, index) -> tuple[list[IKSol
     return [replace(nearest, q=q)], nearest, 1 + attempts
 
 
+def described(robot: Robot, poses: list[pin.SE3], configurations: np.ndarray, limits: JointLimits,
+              seed: int = 0) -> list[IKSolution]:
+    """``IKSolution`` of configurations (n, nq) [rad] found otherwise (``cartesian_path.track_straight_lines``)
+    for ``poses``, reported as the ``optimal`` rule reports its choice: the residuals, the jump from
+    the previous configuration, and which of the pose's distinct solutions (``pose_solutions``) it
+    is (one more where the search did not find it)."""
+    rng = np.random.default_rng(seed)
+    solutions, previous = [], None
+    for index, (target, q) in enumerate(zip(poses, configurations)):
+        found, _, attempts = pose_solutions(robot, target, limits, rng)
+        which = next((i for i, s in enumerate(found) if not _distinct(robot, q, [s])), len(found))
+        error = pose_error(robot, q, target)
+        jump = float(np.linalg.norm(q - previous)) if previous is not None else 0.0
+        solutions.append(IKSolution(q, float(np.linalg.norm(error[:3])), float(np.linalg.norm(error[3:])), 0,
+                                    attempts, jump, max(len(found), which + 1), which, range_margin_deg(q, limits)))
+        _log_choice("tracked", index, solutions[-1])
+        previous = q
+    return solutions
+
+
 def _log_choice(rule: str, index: int, solution: IKSolution) -> None:
     log.info("%s rule, waypoint %d: solution %d of %d (%d solve%s), jump %.3g deg, margin to the ranges %.3g deg, "
              "residual %.2g m, %.2g deg", rule, index, solution.chosen + 1, solution.solutions, solution.attempts,

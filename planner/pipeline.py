@@ -15,12 +15,12 @@ from typing import Any
 
 import numpy as np
 
-from .cartesian_path import StraightPath, follow_straight_lines, tool_deviation
+from .cartesian_path import JUMP_RAD, StraightPath, follow_straight_lines, tool_deviation, track_straight_lines
 from .concurrency import WarmWorkers, WorkerLost, map_forked
 from .dynamics import RobotLimitOutcome, joint_torques, meet_robot_limits, torque_limits
 from .errors import IKError, InfeasibleError, InputError, MissingLimitError, OutputError, PlannerError, TaskError
 from .export import coefficients_document, json_ready, write_json, write_trajectory_csv
-from .ik import IKSolution, pose_from_position_quaternion, solve_waypoints
+from .ik import IKSolution, described, pose_from_position_quaternion, solve_waypoints
 from .kinematics import KinematicFigures, Violation, kinematic_figures
 from .limits import FEASIBILITY_TOLERANCE, LIMITED, QUANTITIES, JointLimits, in_degrees, in_degrees_apart
 from .outputs import absolute_path, output_folder
@@ -55,7 +55,8 @@ class PlanResult:
         ik: one IK solution per Cartesian waypoint (residuals, branches, joint-space jumps).
         branch_times: total time [s] of each branch rule's sequence, when both were timed (None: that
             rule's sequence could not be timed).
-        branch_kept: the rule (``optimal`` or ``continuous``) whose IK sequence was planned.
+        branch_kept: the rule (``optimal`` or ``continuous``) whose IK sequence was planned, or ``tracked``:
+            in linear mode, the solutions the straight lines reach from a rule's first (``_follow_lines``).
         robot_limits: how the torque and tool-speed limits were met, where the task gives them.
         path: for Cartesian tasks, how the tool follows the straight segments between
             waypoints (``linear`` mode) or strays from them (``joint`` mode).
@@ -243,6 +244,56 @@ OUTPUT_FILES = ("summary.json", "trajectory.csv", "coefficients.json", "profiles
 #: Processes that write the outputs (``PlanResult.write``): the recording and coefficients, the figure,
 #: the CSV, each in its own (two cores write them in about the time of the slowest two).
 OUTPUT_WRITERS = 3
+
+
+def _follow_lines(robot: Robot, poses: list, sequences: list, hints: list, limits: JointLimits, seed: int,
+                  follow: Callable, progress) -> tuple:
+    """``follow`` the straight lines from one of the branch rules' IK sequences (``sequences``: (IK,
+    via-points, rule), the kept rule's first), or from what the lines reach from one's first waypoint.
+
+    Each rule picks a waypoint's solution by the joints' motion between waypoints, and may pick one
+    that the line from the previous waypoint does not reach (the joints would have to jump on it).
+    On an arm without redundancy the motion along a line is one continuous curve from its start
+    configuration (away from singularities), which IK continuation finds
+    (``track_straight_lines``): a sequence that it does not reach is tried only last, to name the
+    failure, after each rule's sequence that it does reach and each tracked sequence (kept as
+    ``tracked``, with its IK report from ``ik.described``). Hinted waypoints keep their solutions.
+
+    Returns the path, the timing, the IK report and the kept sequence's name.
+
+    Raises:
+        IKError: the first failure of a rule's own sequence where none follows the lines.
+    """
+    attempts: list[tuple[np.ndarray, Any, str]] = []
+    jumping: list[tuple[np.ndarray, Any, str]] = []
+    tracked: list[np.ndarray] = []
+    for sequence, points, rule in sequences:
+        reached = None if robot.model.nv > 6 else track_straight_lines(
+            robot, poses, points[0], [q if hint is not None else None for q, hint in zip(points, hints)])
+        if reached is None or np.abs(reached - points).max() <= JUMP_RAD:
+            attempts.append((points, sequence, rule))
+            continue
+        progress.note(f"the {rule} rule's IK sequence picks a waypoint solution that the straight line from the one "
+                      f"before does not reach")
+        jumping.append((points, sequence, rule))
+        tracked.append(reached)
+    for reached in tracked:
+        if not any(np.abs(reached - other[0]).max() <= JUMP_RAD for other in attempts):  # tried once
+            attempts.append((reached, None, "tracked"))
+    attempts += jumping
+    failure: IKError | None = None
+    for points, sequence, rule in attempts:
+        try:
+            path, timing = follow(points)
+        except IKError as exc:
+            if rule != "tracked":
+                failure = failure or exc
+            name = "tracked" if rule == "tracked" else f"{rule} rule's"
+            progress.note(f"the {name} IK sequence cannot follow the straight lines ({exc})")
+            continue
+        return path, timing, sequence if sequence is not None else described(robot, poses, points, limits, seed), rule
+    assert failure is not None  # every rule's own sequence is among the attempts
+    raise failure
 
 
 def output_writers() -> WarmWorkers:
@@ -536,18 +587,9 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         def follow(points: np.ndarray):
             return follow_straight_lines(robot, poses, points, time_via_points, task.path.tolerance_m,
                                          task.path.tolerance_rad, progress.note)
-        try:
-            path, (problem, result) = follow(via)
-        except IKError as failure:  # the lines may run into a branch change the other rule's sequence avoids
-            if second is None:
-                raise
-            progress.note(f"the {kept} rule's IK sequence cannot follow the straight lines ({failure}); trying the "
-                          f"{second[2]} rule's")
-            try:
-                path, (problem, result) = follow(second[1])
-            except IKError:
-                raise failure from None
-            ik, kept = second[0], second[2]
+        sequences = [(ik, via, kept)] + ([second] if second is not None else [])
+        path, (problem, result), ik, kept = _follow_lines(robot, poses, sequences, hints, limits, task.ik.seed,
+                                                          follow, progress)
         via = path.via_points
         trajectory = problem.trajectory(result.durations, result.knot_states)
     else:

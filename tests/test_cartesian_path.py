@@ -57,7 +57,7 @@ def linear_ur5_task(tmp_path: Path) -> Path:
     return path
 
 
-def test_linear_mode_falls_back_to_the_other_rules_sequence_when_the_kept_one_cannot_follow_the_lines(capsys):
+def test_linear_mode_takes_the_other_rules_sequence_when_the_lines_do_not_reach_the_kept_one(capsys):
     """Two poses whose faster IK sequence (in joint space) puts the UR5's base on a 2 pi turn of the one the
     straight line reaches: the line cannot be followed from it, and the other rule's sequence can."""
     data = {"version": 1, "robot": {"name": "ur5", "tool_frame": "tool0"},
@@ -67,11 +67,59 @@ def test_linear_mode_falls_back_to_the_other_rules_sequence_when_the_kept_one_ca
             "path": {"mode": "linear"}}
     from planner.progress import TerminalProgress
     result = plan(parse_task(data), progress=TerminalProgress("", quiet=False))
-    assert "rule's IK sequence cannot follow the straight lines" in capsys.readouterr().out
+    assert "the optimal rule's IK sequence picks a waypoint solution that the straight line" in capsys.readouterr().out
     assert result.branch_kept == "continuous" and result.optimization.feasible
     assert result.path.max_distance_m.max() <= 1e-3  # the default tolerance, 1 mm
     turns = np.abs(np.diff(result.via_points, axis=0)).max()
     assert turns < np.pi  # no joint jumps between neighbouring poses on the line
+
+
+F5_POSES = [{"xyz_m": [0.40, -0.25, 0.35], "rpy_deg": [180, 0, 90]},
+            {"xyz_m": [0.25, 0.35, 0.40], "rpy_deg": [180, 0, 45]}]
+
+
+def test_a_line_whose_end_no_rule_picks_is_followed_to_the_solution_it_reaches():
+    """Two UR5 poses for which both rules pick, at the second, a solution (shoulder_pan -111 deg) the
+    line from the first does not reach (sweep 10, F5: refused, 'no joint motion follows the straight
+    line'). The line reaches another solution of the pose, and the plan follows it."""
+    data = {"version": 1, "robot": {"name": "ur5", "tool_frame": "tool0"}, "waypoints": {"cartesian": F5_POSES},
+            "limits": {"acceleration_deg_s2": [1500] * 3 + [3000] * 3, "jerk_deg_s3": [6000] * 3 + [12000] * 3},
+            "path": {"mode": "linear", "tolerance_m": 5e-4, "tolerance_deg": 0.05}}
+    result = plan(parse_task(data))
+    assert result.branch_kept == "tracked" and result.optimization.feasible
+    assert result.path.max_distance_m.max() <= 5e-4
+    first, last = result.via_points[0], result.via_points[-1]
+    assert np.all(np.abs(np.diff(result.via_points, axis=0)) < np.deg2rad(20))  # neighbouring poses, no jump
+    assert abs(np.rad2deg(last[0] - first[0])) < 100  # shoulder_pan: -45 -> 40 deg, not -45 -> -111 (+ 360)
+
+
+def test_tracking_a_line_reaches_its_end_pose_and_gives_up_at_a_singularity_or_a_missed_hint():
+    """``track_straight_lines``: the configuration it reaches puts the tool on the end pose (Pinocchio's
+    FK); a line through the UR5's wrist singularity (wrist_2 -20 -> +20 deg) cannot be tracked; nor can
+    a line whose end is required (a hint) in a solution the line does not reach."""
+    from scipy.spatial.transform import Rotation
+
+    from planner.cartesian_path import track_straight_lines
+    from planner.ik import nearest_turn, pose_from_position_quaternion, pose_solutions, solve_pose
+    from planner.robot import Robot
+    ur5 = Robot.from_example_robot_data("ur5", "tool0")
+    poses = [pose_from_position_quaternion(p["xyz_m"], Rotation.from_euler("xyz", p["rpy_deg"], degrees=True)
+                                           .as_quat()) for p in F5_POSES]
+    start = solve_pose(ur5, poses[0], np.zeros(6))
+    assert start.residual < 1e-9
+    reached = track_straight_lines(ur5, poses, start.q, [None, None])
+    assert reached is not None and np.array_equal(reached[0], start.q)
+    pin.forwardKinematics(ur5.model, ur5.data, reached[1])
+    pin.updateFramePlacements(ur5.model, ur5.data)
+    tool = ur5.data.oMf[ur5.model.getFrameId("tool0")]
+    assert np.linalg.norm(pin.log6(tool.actInv(poses[1])).vector) < 1e-9
+    found, _, _ = pose_solutions(ur5, poses[1], ur5.limits, np.random.default_rng(0))
+    others = [s.q for s in found if np.abs(nearest_turn(ur5, s.q, reached[1]) - reached[1]).max() > 0.1]
+    assert len(others) == len(found) - 1 >= 1  # the pose's other solutions, each required in turn
+    assert all(track_straight_lines(ur5, poses, start.q, [None, q]) is None for q in others)
+    assert np.array_equal(track_straight_lines(ur5, poses, start.q, [None, reached[1]]), reached)
+    a, b = np.deg2rad([20, -70, 80, -100, -20, 30]), np.deg2rad([20, -70, 80, -100, 20, 30])
+    assert track_straight_lines(ur5, [ur5.forward_kinematics(a), ur5.forward_kinematics(b)], a, [None, None]) is None
 
 
 def test_the_time_limit_covers_all_of_a_plans_timing_runs(tmp_path, monkeypatch):
@@ -245,8 +293,11 @@ def test_running_out_of_rounds_names_the_worst_segment_and_says_how_far(tmp_path
 
 def test_a_line_through_a_wrist_singularity_names_where_the_joints_jump():
     """A UR5 line whose end poses differ by wrist_2 = -20 -> +20 deg passes where wrist_2 = 0 (wrist_1 and
-    wrist_3 aligned). It ended in a timing error about shoulder_pan's range after six rounds; it is the
-    segment error naming the place, where an independent IK solve finds the Jacobian nearly singular."""
+    wrist_3 aligned), with the ends' solutions given as hints. It ended in a timing error about
+    shoulder_pan's range after six rounds; it is the segment error naming the place, where an
+    independent IK solve finds the Jacobian nearly singular. (Without hints the optimal rule starts
+    in another elbow branch, from which the line passes the singularity at wrist_2 = -0.5 deg and
+    is followed.)"""
     from planner.ik import solve_pose
     from planner.robot import Robot
     ur5 = Robot.from_example_robot_data("ur5", "tool0")
@@ -254,8 +305,9 @@ def test_a_line_through_a_wrist_singularity_names_where_the_joints_jump():
     poses = [ur5.forward_kinematics(q) for q in (start, end)]
     task = parse_task({"version": 1, "robot": {"name": "ur5", "tool_frame": "tool0"},
                        "waypoints": {"cartesian": [{"xyz_m": p.translation.tolist(),
-                                                    "quat_xyzw": pin.Quaternion(p.rotation).coeffs().tolist()}
-                                                   for p in poses]},
+                                                    "quat_xyzw": pin.Quaternion(p.rotation).coeffs().tolist(),
+                                                    "hint_deg": np.rad2deg(q).tolist()}
+                                                   for p, q in zip(poses, (start, end))]},
                        "limits": {"acceleration_deg_s2": [150] * 6, "jerk_deg_s3": [600] * 6},
                        "path": {"mode": "linear"}})
     with pytest.raises(IKError, match=r"^path segment 0 \(waypoint 0 -> 1\) at fraction ([\d.]+), position .* m: .*"
@@ -579,16 +631,46 @@ def test_running_out_of_rounds_names_the_interval_straying_most_relative_to_its_
     assert float(found[5]) == pytest.approx(np.rad2deg(deviations[worst][1]), rel=0.05, abs=1e-3)
 
 
-def test_a_jump_elsewhere_is_named_rather_than_the_tolerance_blamed():
-    """The UR5 pick-and-place with +-720 deg ranges and the continuous rule: its IK sequence turns
-    shoulder_pan by 218 deg between two poses of one line. The rounds ended where poses could come no
-    closer, beside the jump, with 'the joints barely move there: allow a larger path.tolerance_m'
-    (sweep 8; a 50 times larger tolerance failed alike). The jump is named instead."""
+def wide_range_continuous_ur5_task() -> dict:
+    """The UR5 pick-and-place with +-720 deg ranges and the continuous rule, in linear mode: its IK
+    sequence turns shoulder_pan by 218 deg between waypoints 2 and 3, where the line turns it by 88."""
     data = yaml.safe_load((TASKS / "ur5_pick_and_place.yaml").read_text())
     data["limits"]["position_deg"] = [[-720, 720]] * 6
     data["ik"] = {"branch": "continuous"}
     data["path"] = {"mode": "linear"}
+    return data
+
+
+def test_a_jump_elsewhere_is_named_rather_than_the_tolerance_blamed(monkeypatch):
+    """Following a sequence that jumps (the continuous rule's above, with the tracked sequences taken
+    away), the rounds ended where poses could come no closer, beside the jump, with 'the joints barely
+    move there: allow a larger path.tolerance_m' (sweep 8; a 50 times larger tolerance failed alike).
+    The jump is named instead."""
+    import planner.pipeline
+    monkeypatch.setattr(planner.pipeline, "track_straight_lines", lambda *args: None)
     with pytest.raises(IKError, match=r"^path segment 2 \(waypoint 2 -> 3\) at fraction .*: no joint motion follows "
                                       r"the straight line there: the joint motion jumps there \(joint "
                                       r"'shoulder_pan_joint' by 2\d\d deg"):
-        plan(parse_task(data))
+        plan(parse_task(wide_range_continuous_ur5_task()))
+
+
+def test_a_sequence_the_lines_do_not_reach_is_replaced_by_the_one_they_do(capsys):
+    """The task above plans: from its first waypoint's solution the lines reach other solutions at the
+    later waypoints ('tracked'), and the tool stays on them (Pinocchio's FK at every waypoint, and the
+    joints never jump between neighbouring poses)."""
+    from planner.progress import TerminalProgress
+    from planner.robot import Robot
+    data = wide_range_continuous_ur5_task()
+    result = plan(parse_task(data), progress=TerminalProgress("", quiet=False))
+    assert "the continuous rule's IK sequence picks a waypoint solution that the straight line" in \
+        capsys.readouterr().out
+    assert result.branch_kept == "tracked" and result.optimization.feasible
+    assert result.path.max_distance_m.max() <= 1e-3 and np.rad2deg(result.path.max_angle_rad.max()) <= 0.5
+    ur5 = Robot.from_example_robot_data("ur5", "tool0")
+    task = parse_task(data)
+    for waypoint, q in zip(task.cartesian_waypoints, result.via_points[result.path.waypoint_via]):
+        pin.forwardKinematics(ur5.model, ur5.data, q)
+        pin.updateFramePlacements(ur5.model, ur5.data)
+        assert np.linalg.norm(ur5.data.oMf[ur5.model.getFrameId("tool0")].translation - waypoint.position) < 1e-9
+    assert np.rad2deg(np.abs(np.diff(result.via_points, axis=0)).max()) < 100  # 218 deg jumped before
+    assert [w["chosen_solution"] < w["solutions"] for w in result.summary()["ik"]["waypoints"]] == [True] * 6
