@@ -9,6 +9,9 @@ for internal errors.
 
 from __future__ import annotations
 
+import codecs
+import sys
+
 #: Longest text of one value shown in a message [characters].
 SHOWN_VALUE_CHARS = 80
 #: Longest message of any planner error [characters]; longer ones are cut in the middle.
@@ -28,6 +31,17 @@ def shown(value, limit: int = SHOWN_VALUE_CHARS) -> str:
     if len(text) <= limit:
         return text
     return f"{text[:limit - 1]}… ({len(text)} characters)"
+
+
+def path_encoding_advice(text: str) -> str:
+    """A sentence for a path ``text`` that holds characters beyond ASCII where Python's filesystem
+    encoding is not UTF-8 (a C or POSIX locale with PYTHONUTF8=0: such paths are then neither opened
+    by the names a task file gives nor handed to Rerun as they are), else ""."""
+    encoding = sys.getfilesystemencoding()
+    if codecs.lookup(encoding).name == "utf-8" or text.isascii():
+        return ""
+    return (f"; Python's filesystem encoding here is {encoding!r} (a C or POSIX locale with PYTHONUTF8=0), so "
+            f"paths beyond ASCII cannot be used: set a UTF-8 locale (LC_ALL=C.UTF-8) or PYTHONUTF8=1")
 
 
 def one_line(message: str, limit: int = MESSAGE_CHARS) -> str:

@@ -49,7 +49,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterable, Iterator
 
-from .errors import OutputError, shown
+from .errors import OutputError, path_encoding_advice, shown
 from .interrupts import check as check_interrupted
 
 MARKER = ".planner-output"
@@ -82,8 +82,9 @@ def absolute_path(path, what: str) -> Path:
     except (OSError, RuntimeError) as exc:  # a symlink loop, a name too long
         raise OutputError(f"{what} {shown(text)}: {getattr(exc, 'strerror', None) or exc}") from None
     if not utf8_path(absolute):
-        raise OutputError(f"{what} {shown(str(absolute))}: the path holds bytes that are not UTF-8 (shown as "
-                          f"\\udcXX); Rerun writes recordings and screenshots at UTF-8 paths only: choose another")
+        raise OutputError(f"{what} {shown(str(absolute))}: "
+                          + not_utf8(absolute, "Rerun writes recordings and screenshots at UTF-8 paths only: choose "
+                                               "another"))
     return absolute
 
 
@@ -95,6 +96,16 @@ def utf8_path(path: Path) -> bool:
     except UnicodeEncodeError:
         return False
     return True
+
+
+def not_utf8(path: Path, remedy: str) -> str:
+    """Why ``path`` (not ``utf8_path``) cannot be used: its bytes are not UTF-8 (then ``remedy``), or
+    they are and the filesystem encoding cannot show them (``path_encoding_advice``)."""
+    try:
+        os.fsencode(path).decode("utf-8")
+    except UnicodeDecodeError:
+        return f"the path holds bytes that are not UTF-8 (shown as \\udcXX); {remedy}"
+    return f"the path is UTF-8{path_encoding_advice(str(path))}"
 
 
 def check_writable_location(path: Path, what: str) -> None:

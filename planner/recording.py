@@ -56,7 +56,7 @@ import numpy as np
 from .errors import InputError, RecordingError, ViewerError, shown
 from .kinematics import kinematic_figures
 from .limits import DEGREE_UNITS, PROFILE_QUANTITIES, QUANTITIES, JointLimits
-from .outputs import utf8_path
+from .outputs import not_utf8, utf8_path
 from .splines import PiecewisePolynomial
 
 APPLICATION_ID = "planner"
@@ -570,8 +570,9 @@ def read_recording(path) -> RecordedPlan:
         raise RecordingError("the recording's path is empty (an unset shell variable?); give a path")
     path = Path(path)
     if not utf8_path(path.absolute()):
-        raise RecordingError(f"{shown(str(path.absolute()))}: the path holds bytes that are not UTF-8 (shown as "
-                             f"\\udcXX); Rerun reads recordings at UTF-8 paths only: rename or link it")
+        raise RecordingError(f"{shown(str(path.absolute()))}: "
+                             + not_utf8(path.absolute(), "Rerun reads recordings at UTF-8 paths only: rename or "
+                                                         "link it"))
     try:
         if not path.is_file():
             what = ("a folder: give the .rrd file in it" if path.is_dir() else

@@ -47,7 +47,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import SHOWN_VALUE_CHARS, InputError, SettingError, TaskError, shown
+from .errors import SHOWN_VALUE_CHARS, InputError, SettingError, TaskError, path_encoding_advice, shown
 from .ik import BRANCH_RULES
 from .limits import LIMIT_DEG_RANGE, LIMITED, PROFILE_QUANTITIES
 from .read_only import ReadOnlyArrays, freeze_arrays
@@ -418,7 +418,7 @@ def _robot(value, path: str, base: Path | None) -> RobotSpec:
     if other is not None:
         what = "a folder" if other.is_dir() else "a device, pipe or socket"
         raise TaskError(f"{path}.urdf", f"{_said(str(urdf))} is {what}, not a URDF file")
-    raise TaskError(f"{path}.urdf", f"file not found: {_said(str(urdf))}")
+    raise TaskError(f"{path}.urdf", f"file not found: {_said(str(urdf))}{path_encoding_advice(str(urdf))}")
 
 
 def _ik(value, path: str) -> IKOptions:

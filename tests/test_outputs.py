@@ -96,6 +96,31 @@ def test_a_path_that_is_not_utf8_is_refused_before_planning_and_reading(tmp_path
     assert sorted(os.listdir(tmp_path)) == sorted(["task.yaml", os.fsdecode(b"o\xff")])
 
 
+@pytest.mark.skipif(sys.platform != "linux", reason="the C locale's ASCII filesystem encoding")
+def test_utf8_paths_under_an_ascii_filesystem_encoding_are_refused_for_that_reason(tmp_path, task):
+    """With LC_ALL=C and PYTHONUTF8=0 Python cannot show a UTF-8 name: the output folder was refused as
+    'bytes that are not UTF-8', and a task's existing non-ASCII URDF as 'file not found' (sweep 10, F3).
+    Both now say that the encoding is the cause and how to change it; nothing is written."""
+    import subprocess
+    folder = tmp_path / "dossier_é"
+    folder.mkdir()
+    (folder / "pümä.urdf").write_text((Path(__file__).parents[1] / "robots" / "puma560.urdf").read_text())
+    with_urdf = folder / "task.yaml"
+    data = yaml.safe_load(task.read_text())
+    data["robot"] = {"urdf": "pümä.urdf", "tool_frame": "tool"}
+    with_urdf.write_text(yaml.safe_dump(data, allow_unicode=True), encoding="utf-8")
+    environment = {**os.environ, "LC_ALL": "C", "PYTHONUTF8": "0"}
+    for arguments in ([str(task), "--out", str(folder / "sortie")], [str(with_urdf), "--out", str(tmp_path / "o")]):
+        done = subprocess.run([sys.executable, "-m", "planner.cli", "plan", *arguments], capture_output=True,
+                              env=environment, timeout=120)
+        err = done.stderr.decode("ascii", "backslashreplace")
+        assert done.returncode == 2 and err.count("\n") == 1, err
+        assert "filesystem encoding here is 'ascii'" in err and "PYTHONUTF8=1" in err, err
+        assert "not UTF-8" not in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["dossier_é", "task.yaml"])
+    assert sorted(p.name for p in folder.iterdir()) == ["pümä.urdf", "task.yaml"]
+
+
 def test_an_output_file_ending_with_a_separator_is_refused_as_a_folder(tmp_path):
     for name in ("new/", "new" + os.sep):
         with pytest.raises(OutputError, match="ends with a path separator, which names a folder"):
