@@ -66,6 +66,26 @@ def test_pso_evaluates_only_candidates_inside_the_search_box(monkeypatch):
     assert np.all(candidates >= lower) and np.all(candidates <= upper)
 
 
+def test_pso_moves_stay_in_the_box_where_its_lower_side_binds(monkeypatch):
+    """With duration bounds [2, 8] s every segment's optimum is the lower bound 2 s: particles drawn
+    towards it overshoot, and each move must still be clipped to the box (mutmut: clipping only at the
+    upper side evaluated about 2000 candidates below 2 s)."""
+    problem = TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG)[:4], "cubic", paper.paper_limits(), bounds=(2.0, 8.0))
+    lower, upper = problem.search_box()
+    seen = []
+    evaluate = TimingProblem.evaluate
+
+    def recording(self, candidates):
+        seen.append(np.array(candidates, copy=True))
+        return evaluate(self, candidates)
+
+    monkeypatch.setattr(TimingProblem, "evaluate", recording)
+    result = particle_swarm(problem, particles=10, iterations=60, seed=0)
+    candidates = np.concatenate(seen)
+    assert np.all(candidates >= lower) and np.all(candidates <= upper)
+    assert np.allclose(result.durations, 2.0, rtol=0, atol=1e-9)  # the lower side is where the optimum is
+
+
 def test_de_defaults_spend_about_the_documented_budget():
     """population 15 (15 * S members), generations chosen so that members * (generations + 1), the
     evaluations scipy spends without polishing, stays within the 6000 evaluations; seed 0."""

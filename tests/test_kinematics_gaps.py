@@ -135,3 +135,23 @@ def test_a_dropped_leading_coefficient_is_corrected_by_the_newton_step(lead):
     for found in (_cubic_roots(p), column_roots(p[None, None, None])[0, 0, 0]):
         inside = np.sort(found[(found > 0) & (found < 1)])
         np.testing.assert_allclose(inside, expected, rtol=0, atol=1e-11)
+
+
+@pytest.mark.parametrize("layout", ["batch", "columns", "joints"])
+def test_column_roots_deflate_a_root_at_one_by_each_polynomials_own_scale(layout):
+    """A root at s = 1 is divided out where p(1 - u)'s low coefficients are negligible against the
+    polynomial's own coefficients. Beside a polynomial 1e6 times larger with a triple root at 1 (in
+    the same batch, column or joint set), a unit-sized one with a root 1e-6 from 1 keeps that root:
+    its value at 1, 5.6e-6, is not negligible for it (mutmut: the scale taken over the batch, the
+    columns or the joints lost it). Independent: numpy's roots of each polynomial."""
+    large = 1e6 * P.polyfromroots([1, 1, 1, 0.5, -2])
+    small = P.polyfromroots([1 - 1e-6, 0.3, 0.6, -3, -4])
+    axis = {"batch": 0, "columns": 1, "joints": 2}[layout]
+    shape = [1, 1, 1, len(small)]
+    shape[axis] = 2
+    p = np.moveaxis(np.stack((large, small))[:, None, None, :], 0, axis).reshape(shape)
+    found = np.moveaxis(column_roots(p), axis, 0)[1].ravel()
+    found = np.sort(found[np.isfinite(found)])
+    expected = np.sort([r.real for r in np.roots(small[::-1]) if abs(r.imag) < 1e-12 and 0 <= r.real <= 1])
+    assert found.shape == expected.shape == (3,)
+    assert np.allclose(found, expected, rtol=0, atol=1e-9)
