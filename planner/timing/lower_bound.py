@@ -124,10 +124,9 @@ def time_lower_bound(via_points: np.ndarray, limits: JointLimits) -> float:
     starts = np.arange(count)
     windows = values[np.minimum(starts[:, None] + np.arange(span), last)]  # (n, span, J), the end repeated
     links = _walk(windows, limits, starts == 0, last - starts)  # links[i, d] = w(i, i + d) where i + d <= last
-    longest = np.full(count, -np.inf)
-    longest[0] = 0.0
+    longest = from_first.copy()  # the chains of one link from the first via-point; w(0, 0) = 0
     for i in range(last):
         reach = min(span, count - i)
         longest[i + 1:i + reach] = np.maximum(longest[i + 1:i + reach], longest[i] + links[i, 1:reach])
         longest[last] = max(longest[last], longest[i] + to_last[i])
-    return float(max(longest[last], from_first[last]))
+    return float(longest[last])
