@@ -227,7 +227,9 @@ def main(argv=None, *, keep_signal_handlers: bool = False) -> int:
             parser.error("the following arguments are required: command")
         debug = args.debug
         logged = _log_to_stderr(args.verbose)
-        return args.run(args)
+        code = args.run(args)
+        interrupts.check()  # one a library swallowed ends the command as interrupted, whatever it did
+        return code
     except PlannerError as exc:
         print(f"error: {_printable(str(exc))}", file=sys.stderr)
         return exc.exit_code

@@ -471,6 +471,7 @@ def atomic_file(path, *, force: bool = False) -> Iterator[Path]:
         os.close(os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
         try:
             yield temporary
+            check_interrupted()  # one a library swallowed (an import's weakref callback) must not publish the file
             os.replace(temporary, target)
             published = True
         finally:

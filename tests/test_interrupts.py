@@ -51,6 +51,24 @@ def test_a_swallowed_interruption_publishes_nothing(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_a_swallowed_interruption_publishes_no_single_file(tmp_path):
+    """``replay --export-csv`` / ``--screenshot``: a SIGTERM that landed in an import's weakref callback
+    was printed as 'Exception ignored' and lost; the PNG was published and the exit code was 0 (sweep
+    10, F8). The file is published only if no interruption is pending, and an existing one is kept."""
+    from planner.outputs import atomic_file
+
+    class Terminated(BaseException):
+        pass
+    (tmp_path / "kept.png").write_text("the user's")
+    for name, force in (("new.png", False), ("kept.png", True)):
+        with pytest.raises(Terminated):
+            with atomic_file(tmp_path / name, force=force) as staging:
+                staging.write_text("rendered")
+                swallowed(Terminated())
+        interrupts.reset()
+    assert [p.name for p in tmp_path.iterdir()] == ["kept.png"] and (tmp_path / "kept.png").read_text() == "the user's"
+
+
 def test_after_publishing_a_signal_changes_nothing():
     interrupts.finish()
     interrupts.request(KeyboardInterrupt())  # ignored: no exception
