@@ -48,10 +48,8 @@ def test_pso_reports_progress_once_per_iteration_with_the_best_so_far():
     assert [best for _, _, best in calls] == result.history
 
 
-def test_pso_evaluates_only_candidates_inside_the_search_box(monkeypatch):
-    """Particles start uniformly in the box and every move is clipped to it (x <- clip(x + v))."""
-    problem = _problem()
-    lower, upper = problem.search_box()
+def pso_candidates(monkeypatch, problem, **settings):
+    """PSO's result on ``problem`` and every candidate (rows) it evaluated."""
     seen = []
     evaluate = TimingProblem.evaluate
 
@@ -60,8 +58,15 @@ def test_pso_evaluates_only_candidates_inside_the_search_box(monkeypatch):
         return evaluate(self, candidates)
 
     monkeypatch.setattr(TimingProblem, "evaluate", recording)
-    particle_swarm(problem, particles=10, iterations=60, seed=2)
-    candidates = np.concatenate(seen)
+    result = particle_swarm(problem, **settings)
+    return result, np.concatenate(seen)
+
+
+def test_pso_evaluates_only_candidates_inside_the_search_box(monkeypatch):
+    """Particles start uniformly in the box and every move is clipped to it (x <- clip(x + v))."""
+    problem = _problem()
+    lower, upper = problem.search_box()
+    _, candidates = pso_candidates(monkeypatch, problem, particles=10, iterations=60, seed=2)
     assert len(candidates) == 10 * 61
     assert np.all(candidates >= lower) and np.all(candidates <= upper)
 
@@ -72,16 +77,7 @@ def test_pso_moves_stay_in_the_box_where_its_lower_side_binds(monkeypatch):
     upper side evaluated about 2000 candidates below 2 s)."""
     problem = TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG)[:4], "cubic", paper.paper_limits(), bounds=(2.0, 8.0))
     lower, upper = problem.search_box()
-    seen = []
-    evaluate = TimingProblem.evaluate
-
-    def recording(self, candidates):
-        seen.append(np.array(candidates, copy=True))
-        return evaluate(self, candidates)
-
-    monkeypatch.setattr(TimingProblem, "evaluate", recording)
-    result = particle_swarm(problem, particles=10, iterations=60, seed=0)
-    candidates = np.concatenate(seen)
+    result, candidates = pso_candidates(monkeypatch, problem, particles=10, iterations=60, seed=0)
     assert np.all(candidates >= lower) and np.all(candidates <= upper)
     assert np.allclose(result.durations, 2.0, rtol=0, atol=1e-9)  # the lower side is where the optimum is
 
