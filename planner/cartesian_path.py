@@ -45,6 +45,7 @@ import pinocchio as pin
 
 from .errors import IKError, InfeasibleError, TaskError
 from .ik import nearest_turn, solve_pose
+from .read_only import ReadOnlyArrays, freeze_arrays
 from .robot import Robot
 from .splines import PiecewisePolynomial
 from .task import MAX_VIA_POINTS
@@ -134,8 +135,8 @@ def tool_deviation(robot: Robot, trajectory: PiecewisePolynomial, poses: list[pi
     return distance, angle, per_segment[0], per_segment[1]
 
 
-@dataclass
-class StraightPath:
+@dataclass(frozen=True)
+class StraightPath(ReadOnlyArrays):
     """A joint trajectory whose tool follows the straight segments between waypoints.
 
     Attributes:
@@ -152,6 +153,9 @@ class StraightPath:
     max_distance_m: np.ndarray
     max_angle_rad: np.ndarray
     rounds: int
+
+    def __post_init__(self):
+        freeze_arrays(self)
 
 
 def follow_straight_lines(robot: Robot, poses: list[pin.SE3], waypoint_q: np.ndarray,
@@ -266,7 +270,8 @@ def _pose_between(robot: Robot, poses: list[pin.SE3], segment: int, low: float, 
     (another branch), IK from each neighbour too, keeping the solution nearest the mean.
 
     Raises:
-        IKError: no configuration reaches the pose (the line leaves the reachable workspace).
+        IKError: no configuration reaches the pose from the neighbours' (the line leaves the reachable
+            workspace, or the branch followed runs into a range bound).
     """
     target = interpolate_pose(poses[segment], poses[segment + 1], (low + high) / 2)
     middle = (before + after) / 2
@@ -280,8 +285,10 @@ def _pose_between(robot: Robot, poses: list[pin.SE3], segment: int, low: float, 
             break
     best, q, _ = min(found, key=lambda option: (option[0].residual > 1e-9, option[2], option[0].residual))
     if best.residual > 1e-9:
-        raise IKError(f"{_where(poses, segment, (low + high) / 2)}: the straight line leaves the reachable workspace "
-                      f"(best residual {best.position_error:.3g} m, {np.rad2deg(best.orientation_error):.3g} deg)",
+        raise IKError(f"{_where(poses, segment, (low + high) / 2)}: IK from the neighbouring poses' configurations "
+                      f"reaches no configuration there within the joint ranges: the straight line leaves the reachable "
+                      f"workspace, or the branch it follows runs into a range bound (best residual "
+                      f"{best.position_error:.3g} m, {np.rad2deg(best.orientation_error):.3g} deg)",
                       waypoint=segment, residual=best.residual)
     return q
 

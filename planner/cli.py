@@ -103,7 +103,7 @@ def _replay(args) -> int:
         skipped = [option for option, given in (("--export-csv", target), ("--screenshot", args.screenshot))
                    if given is not None and not check.passed]
         print(f"{args.recording}: {len(recorded.joint_names)} joints, {len(recorded.times)} samples, "
-              f"T = {recorded.trajectory.total_time:.4f} s, largest ratio {check.largest_ratio:.4f}, "
+              f"T = {recorded.trajectory.total_time:.4f} s, largest ratio {_ratio(check.largest_ratio)}, "
               f"samples vs trajectory {check.deviation:.2e} rad (allowed {check.tolerance:.2e}), "
               f"{', '.join(findings) or 'limits hold'}"
               + (f"; {' and '.join(skipped)} not written: the check failed" if skipped else ""))
@@ -119,6 +119,11 @@ def _replay(args) -> int:
     if args.screenshot is None and not args.check and target is None:
         open_in_viewer(args.recording, command=_command())
     return 0
+
+
+def _ratio(ratio: float) -> str:
+    """A limit ratio in a line: 4 decimals, or 4 significant digits where it is huge (a forged recording)."""
+    return f"{ratio:.4f}" if abs(ratio) < 1e4 else f"{ratio:.4g}"
 
 
 def _command() -> str:

@@ -64,7 +64,8 @@ CSV_CHUNK_ROWS = 20_000
 def write_trajectory_csv(path: Path, trajectory: PiecewisePolynomial, rate_hz: float,
                          joint_names: list[str] | None = None,
                          torques: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
-    """Samples at ``rate_hz``: time [s], then position, velocity, acceleration, jerk per joint [deg-based],
+    """Samples at ``rate_hz``: time [s] (15 significant digits), then position, velocity, acceleration,
+    jerk per joint [deg-based] (10),
     and, with ``torques`` (times (K,) [s] -> (K, J) [N m]), each joint's torque.
 
     Columns are named ``q_<joint>_deg``, ``v_<joint>_deg_s``, ``a_<joint>_deg_s2``,
@@ -76,7 +77,7 @@ def write_trajectory_csv(path: Path, trajectory: PiecewisePolynomial, rate_hz: f
     names = joint_names or default_joint_names(trajectory.joint_count)
     columns = _QUANTITY_COLUMNS + ((("tau", "Nm"),) if torques is not None else ())
     header = ["time_s"] + [f"{quantity}_{name}_{unit}" for quantity, unit in columns for name in names]
-    row = ",".join(["%.10g"] * len(header)) + "\n"
+    row = ",".join(["%.15g"] + ["%.10g"] * (len(header) - 1)) + "\n"  # times of long plans keep their ms
     with path.open("w", newline="", encoding="utf-8") as handle:
         csv.writer(handle, lineterminator="\n").writerow(header)
         for first in range(0, len(times), CSV_CHUNK_ROWS):

@@ -108,6 +108,16 @@ def not_utf8(path: Path, remedy: str) -> str:
     return f"the path is UTF-8{path_encoding_advice(str(path))}"
 
 
+def _check_force(force) -> None:
+    """``force`` is True or False: any other value (``force="no"``, truthy) would replace a user's files.
+
+    Raises:
+        OutputError: anything else, naming it.
+    """
+    if not isinstance(force, bool):
+        raise OutputError(f"force must be True or False, not {shown(force)}")
+
+
 def check_writable_location(path: Path, what: str) -> None:
     """The nearest existing ancestor of ``path`` is a folder this process may write in.
 
@@ -186,6 +196,7 @@ def check_output_folder(path, *, force: bool = False) -> tuple[Path, bool]:
             non-empty folder the planner did not write (without ``force``).
     """
     folder = absolute_path(path, "output folder")
+    _check_force(force)
     try:
         return _check_folder(folder, force)
     except OSError as exc:  # a name too long, an unreadable ancestor
@@ -429,6 +440,7 @@ def check_output_file(path, *, force: bool = False) -> Path:
             replaced unasked.
     """
     target = absolute_path(path, "output file")
+    _check_force(force)
     if os.fspath(path).endswith(tuple(filter(None, (os.sep, os.altsep)))):
         raise OutputError(f"output file {shown(os.fspath(path))} ends with a path separator, which names a folder; "
                           f"give a file name")

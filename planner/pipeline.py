@@ -5,6 +5,7 @@ Each stage takes and returns plain objects; this module only wires them.
 
 from __future__ import annotations
 
+import copy
 import os
 import time
 from collections.abc import Callable, Mapping
@@ -25,11 +26,12 @@ from .kinematics import KinematicFigures, Violation, kinematic_figures
 from .limits import FEASIBILITY_TOLERANCE, LIMITED, QUANTITIES, JointLimits, in_degrees, in_degrees_apart
 from .outputs import absolute_path, output_folder
 from .progress import TerminalProgress
+from .read_only import read_only
 from .recording import prepare_recording, write_recording
 from .report import plot_profiles, prepare_figure
 from .robot import Robot, load_robot
 from .splines import MAX_SAMPLES, PiecewisePolynomial
-from .task import Task, check_limit_counts, check_task, load_task, parse_task
+from .task import Task, check_limit_counts, check_task, load_task, parse_task, plain_values
 from .timing import OptimizationResult, TimingProblem, optimize
 from .timing.nlp import robot_refine
 from .timing.result import time_limit
@@ -75,6 +77,9 @@ class PlanResult:
     branch_times: dict[str, float | None] = field(default_factory=dict)
     branch_kept: str | None = None
     robot_limits: RobotLimitOutcome | None = None
+
+    def __post_init__(self):
+        self.via_points = read_only(self.via_points)  # the summary reads it
 
     @property
     def feasible(self) -> bool:
@@ -200,12 +205,17 @@ class PlanResult:
         (``output_writers()``, started before planning) or processes forked now.
 
         Raises:
-            OutputError: ``folder`` is no existing folder.
+            OutputError: ``folder`` is no existing folder, or holds one of the files already (``write``
+                replaces nothing: ``save`` replaces the planner's own outputs, by its rules).
         """
         folder = absolute_path(folder, "the output folder")
         if not folder.is_dir():
             raise OutputError(f"output folder {str(folder)!r} does not exist (write needs an existing folder; save "
                               f"creates one)")
+        present = [name for name in OUTPUT_FILES if os.path.lexists(folder / name)]
+        if present:
+            raise OutputError(f"output folder {str(folder)!r} already holds {', '.join(present)}: write replaces "
+                              f"nothing; save replaces the planner's own outputs (force=True: anyone's)")
         start = time.perf_counter()
         # Three independent writers, each holding the GIL most of its time: side by side in processes.
         work = [partial(self._write_recording, folder), partial(self._write_figure, folder),
@@ -407,10 +417,10 @@ def as_task(task) -> Task:
     Raises:
         TaskError: anything else, or a task that does not validate.
     """
-    if isinstance(task, Task):
-        return check_task(task)
-    if isinstance(task, Mapping):
-        return parse_task(dict(task))
+    if isinstance(task, Task):  # a copy: the caller's later changes to its dicts stay out of the result
+        return check_task(copy.deepcopy(task))
+    if isinstance(task, Mapping):  # numpy values and iterators as make_task takes them
+        return parse_task(plain_values(task))
     if isinstance(task, (str, os.PathLike)):
         return load_task(task)
     raise TaskError("", f"a task is a Task, a task file's path or a mapping of the task schema, "

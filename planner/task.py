@@ -624,7 +624,7 @@ def task_document(task: Task) -> dict:
     except (TypeError, ValueError, AttributeError, KeyError, IndexError) as exc:
         raise TaskError("", f"the Task holds values no task file could ({type(exc).__name__}: {exc}); "
                             f"build tasks with load_task, parse_task or make_task") from None
-    return _plain(document)
+    return plain_values(document)
 
 
 def check_task(task: Task) -> Task:
@@ -634,7 +634,7 @@ def check_task(task: Task) -> Task:
     return task
 
 
-def _plain(value, path: str = "", depth: int = 0):
+def plain_values(value, path: str = "", depth: int = 0):
     """Python and numpy values as the plain lists, dicts and numbers a parsed task file holds (any
     ``Mapping`` becomes a dict), nested at most ``MAX_NESTING`` deep as in a file (a list that
     contains itself is refused, not recursed into without end)."""
@@ -646,9 +646,9 @@ def _plain(value, path: str = "", depth: int = 0):
     if isinstance(value, np.generic):
         return value.item()
     if isinstance(value, Mapping):
-        return {key: _plain(item, key_path(path, key), depth + 1) for key, item in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(item, f"{path}[{index}]", depth + 1) for index, item in enumerate(value)]
+        return {key: plain_values(item, key_path(path, key), depth + 1) for key, item in value.items()}
+    if isinstance(value, (list, tuple, Iterator)):  # a generator of rows too
+        return [plain_values(item, f"{path}[{index}]", depth + 1) for index, item in enumerate(value)]
     return value
 
 
@@ -673,7 +673,7 @@ def pose_entry(pose=None, *, xyz_m=None, rpy_deg=None, quat_xyzw=None, hint_deg=
                 raise TaskError(where, f"the pose's rotation is not a rotation matrix: {what}")
         xyz_m, quat_xyzw = pose.translation, pin.Quaternion(pose.rotation).coeffs()  # coeffs: x, y, z, w
     entry = {"xyz_m": xyz_m, "rpy_deg": rpy_deg, "quat_xyzw": quat_xyzw, "hint_deg": hint_deg}
-    return _plain({key: value for key, value in entry.items() if value is not None})
+    return plain_values({key: value for key, value in entry.items() if value is not None})
 
 
 def make_task(*positional, name: str = "task", robot: dict | None = None, joints_deg=None, poses=None,
@@ -712,7 +712,7 @@ def make_task(*positional, name: str = "task", robot: dict | None = None, joints
                          ("trajectory", trajectory), ("optimizer", optimizer)):
         if section is not None:
             document[key] = section
-    return parse_task(_plain(document), name=name)
+    return parse_task(plain_values(document), name=name)
 
 
 def load_task(path) -> Task:

@@ -261,3 +261,10 @@ def test_what_cannot_be_printed_is_dropped_and_the_exit_code_stands(tmp_path, re
     written = sorted(p.name for p in (tmp_path / "out").iterdir()) if code == 0 else []
     assert written == ([] if code else [".planner-output", "coefficients.json", "profiles.png", "summary.json",
                                         "trajectory.csv", "trajectory.rrd"])
+
+
+def test_a_huge_ratio_prints_in_a_few_characters():
+    """``replay --check`` of a forged recording printed a largest ratio of 300 digits (sweep 11)."""
+    from planner.cli import _ratio
+    assert _ratio(0.99999) == "1.0000" and _ratio(1.23456) == "1.2346" and _ratio(9999.0) == "9999.0000"
+    assert _ratio(3.7e300) == "3.7e+300" and _ratio(float("inf")) == "inf"

@@ -137,3 +137,14 @@ def test_a_csv_with_torque_columns_reads_back_every_kinematic_column(tmp_path, j
 def test_json_ready_keeps_text_and_booleans():
     assert export.json_ready(np.array(["a", "b"])) == ["a", "b"]
     assert export.json_ready(np.array([True, False])) == [True, False]
+
+
+def test_the_time_column_keeps_the_milliseconds_of_a_long_plan(tmp_path):
+    """Times were written with 10 significant digits like the values: the last row of a 1.3e9 s plan
+    read 1275384167 for 1275384167.064 s (sweep 11). Times keep 15."""
+    via = np.deg2rad(paper.VIA_POINTS_DEG)
+    durations = np.asarray(paper.DURATIONS_S) * 1275384167.064 / np.sum(paper.DURATIONS_S)
+    trajectory = get_family("cubic").build(via, durations)
+    write_trajectory_csv(tmp_path / "t.csv", trajectory, 1e-7)
+    times, _ = read_trajectory_csv(tmp_path / "t.csv")
+    assert abs(times[-1] - trajectory.total_time) < 1e-5 and abs(times[-1] - 1275384167.064) < 1e-5

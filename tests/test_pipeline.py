@@ -421,3 +421,51 @@ def test_the_summary_is_the_summary_json_document(tmp_path):
     written = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert json.loads(json.dumps(result.summary())) == written
     assert written["limits"]["position_deg"] == {"lower": [None, None], "upper": [None, None]}  # no ranges: null
+
+
+TWO_JOINTS = {"velocity_deg_s": [60, 60], "acceleration_deg_s2": [120, 120], "jerk_deg_s3": [600, 600]}
+
+
+def test_a_task_changed_after_planning_leaves_the_result_as_planned():
+    """The Task's dicts were the result's: setting bounds and the objective on it afterwards made the
+    summary report them, not what was planned (sweep 11)."""
+    task = planner.make_task(joints_deg=[[0, 0], [40, -20], [90, 10]], limits=TWO_JOINTS,
+                             optimizer={"bounds_s": [0.2, 3.0]})
+    result = plan(task)
+    before = result.summary()["optimizer"]
+    task.optimizer["bounds"] = (9.0, 10.0)
+    task.optimizer["objective"] = "time-jerk"
+    assert result.summary()["optimizer"] == before and before["bounds_s"] == [0.2, 3.0]
+    assert result.trajectory.durations.max() <= 3.0 + 1e-12
+
+
+def test_a_mapping_takes_what_make_task_takes():
+    """numpy arrays and scalars, and a generator of rows, in a mapping given to ``plan`` (each was
+    refused as 'at least 2 joint vectors' or 'unsupported version np.int64(1)'); same plan as make_task's."""
+    rows = np.array([[0, 0], [40, -20], [90, 10]])
+    expected = plan(planner.make_task(joints_deg=rows, limits=TWO_JOINTS)).trajectory.total_time
+    for document in ({"version": 1, "waypoints": {"joints_deg": rows}, "limits": TWO_JOINTS},
+                     {"version": np.int64(1), "waypoints": {"joints_deg": rows.tolist()}, "limits": TWO_JOINTS},
+                     {"version": 1, "waypoints": {"joints_deg": (row for row in rows.tolist())}, "limits": TWO_JOINTS}):
+        assert plan(document).trajectory.total_time == pytest.approx(expected, rel=1e-12)
+
+
+def test_write_replaces_nothing_and_the_results_arrays_are_read_only(tmp_path):
+    """``write`` (public) replaced a user's summary.json in an existing folder, where ``save`` refuses
+    it; the via-points and a Cartesian plan's path arrays were writable, and the summary read them."""
+    result = plan(planner.make_task(joints_deg=[[0, 0], [40, -20], [90, 10]], limits=TWO_JOINTS))
+    (tmp_path / "summary.json").write_text("mine")
+    with pytest.raises(planner.OutputError, match=r"already holds summary.json: write replaces nothing"):
+        result.write(tmp_path)
+    assert [p.name for p in tmp_path.iterdir()] == ["summary.json"]
+    assert (tmp_path / "summary.json").read_text() == "mine"
+    with pytest.raises(ValueError, match="read-only"):
+        result.via_points[0, 0] = 1.0
+    with pytest.raises(planner.OutputError, match="force must be True or False, not 'no'"):
+        result.save(tmp_path, force="no")
+    assert (tmp_path / "summary.json").read_text() == "mine"
+    cartesian = plan(load_task(TASKS / "ur5_pick_and_place.yaml"))
+    for array in (cartesian.via_points, cartesian.path.via_points, cartesian.path.max_distance_m,
+                  cartesian.path.waypoint_via):
+        with pytest.raises(ValueError, match="read-only"):
+            array[0] = 123
