@@ -602,3 +602,18 @@ def test_starts_that_end_out_of_a_range_fall_back_inside_it_near_their_result():
     assert result.feasible and result.total_time <= 43.1799 * 1.0005
     positions = problem.trajectory(result.durations).evaluate(np.linspace(0, result.total_time, 200001))
     assert np.all(positions <= limits.upper) and np.all(positions >= limits.lower)
+
+
+def test_acceleration_and_jerk_limits_far_above_the_motion_change_nothing():
+    """Velocity limits of 1e-6 deg/s beside the paper's acceleration and jerk limits (the optimum uses
+    1e-16 of them): they scaled the knot states, which sat below IPOPT's tolerances; both starts ended
+    Search_Direction_Becomes_Too_Small 30 % above the optimum (sweep 11). Now the plan equals the one
+    without those limits, every start solved."""
+    via = np.deg2rad(paper.VIA_POINTS_DEG)
+    slow = np.full(6, np.deg2rad(1e-6))
+    limits = paper.paper_limits()
+    with_them = optimize(TimingProblem(via, "cubic", limits.with_overrides(velocity=slow)), "default")
+    without = optimize(TimingProblem(via, "cubic", JointLimits.create(6, velocity=slow)), "default")
+    assert [start.status for start in with_them.starts] == ["Solve_Succeeded"] * len(with_them.starts)
+    assert with_them.total_time == pytest.approx(without.total_time, rel=1e-6)
+    assert with_them.feasible and without.feasible

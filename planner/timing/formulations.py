@@ -43,6 +43,14 @@ def _peak(coefficients: np.ndarray) -> float:
 HYBRID_END_JERK = _peak(derivative_coefficients(HYBRID_END, 3))
 
 
+#: An acceleration or jerk limit this many times what the reference trajectory reaches, and what its
+#: velocity (acceleration) over its mean duration implies, does not set that quantity's scale: the
+#: knot states would sit below IPOPT's tolerances (velocity limits of 1e-6 deg/s beside acceleration
+#: and jerk limits of the paper: 1e-17 of them, and both starts ended Search_Direction_Becomes_Too_Small
+#: 30 % above the optimum).
+FAR_ABOVE = 1e3
+
+
 @dataclass(frozen=True)
 class Scales:
     """Characteristic magnitudes that scale the NLP's variables and constraints to order one.
@@ -50,7 +58,8 @@ class Scales:
     Attributes:
         time: a typical segment duration [s].
         derivatives: (4, J) typical |q^(d)| for d = 1..4 [rad/s^d]: the limit where one is
-            given, else the reference trajectory's peak, else 1; snap is jerk / time.
+            given (unless ``FAR_ABOVE`` what the motion reaches), else the reference trajectory's
+            peak, else 1; snap is jerk / time.
         segment_times: (S,) the reference trajectory's durations [s].
     """
 
@@ -65,6 +74,9 @@ class Scales:
         fallback = np.where(peaks > 0, peaks, 1.0)
         typical = np.where(np.isfinite(magnitudes), magnitudes, fallback)
         time = float(np.mean(durations))
+        for d in (1, 2):  # a limit far above what the motion reaches and implies does not set its scale
+            reached = np.maximum(typical[d - 1] / time, fallback[d])
+            typical[d] = np.where(typical[d] > FAR_ABOVE * reached, reached, typical[d])
         return cls(time, np.vstack((typical, typical[2] / time)), np.asarray(durations, dtype=float))
 
 
