@@ -1,8 +1,11 @@
 """Gaps in the tests of planner/timing/starts.py found by mutation testing (mutmut)."""
 
 import numpy as np
+import pytest
 
-from planner.timing.starts import DIFFERENCE, REGION_MARGIN, recombined
+from planner import JointLimits
+from planner.timing import TimingProblem
+from planner.timing.starts import DIFFERENCE, REGION_MARGIN, chord_segments, recombined, start_shapes
 
 
 def test_a_taken_region_reaches_margin_segments_on_both_sides():
@@ -52,3 +55,68 @@ def test_a_region_that_reaches_the_last_segment_is_taken():
     expected = first.copy()
     expected[9] = 1.0
     np.testing.assert_array_equal(recombined([first, other]), expected)
+
+
+# ---------------------------------------------------------------- added by the second mutation run (/tmp/mut38):
+# chord_segments, _spread and start_shapes
+
+VIA = np.array([[0.0, 0.0], [1.0, 0.5], [1.5, -0.5], [3.0, -0.2]])
+VELOCITY = np.array([1.0, 0.25])
+
+
+def _chord_times(via, velocity):
+    """max_j D_j / V_j per chord, by explicit loops."""
+    return [max(abs(via[c + 1, j] - via[c, j]) / velocity[j] for j in range(via.shape[1]))
+            for c in range(len(via) - 1)]
+
+
+@pytest.mark.parametrize("family", ["cubic", "hybrid"])
+def test_the_cubic_families_give_the_first_and_last_chords_two_segments(family):
+    """Cubic families: knots 0, 2, .., n - 1, n + 1 are the via-points (1 and n are virtual), so segments
+    0 and 1 belong to chord 0 and the last two to the last chord."""
+    problem = TimingProblem(VIA, family, JointLimits.create(2, velocity=VELOCITY))
+    np.testing.assert_array_equal(chord_segments(problem), [0, 0, 1, 2, 2])
+
+
+@pytest.mark.parametrize("family", ["quintic", "hermite7"])
+def test_a_family_with_every_knot_a_via_point_has_one_segment_per_chord(family):
+    problem = TimingProblem(VIA, family, JointLimits.create(2, velocity=VELOCITY))
+    np.testing.assert_array_equal(chord_segments(problem), [0, 1, 2])
+
+
+def test_a_chords_time_is_split_evenly_among_its_segments():
+    """Velocity limits only: both shapes are D / V per chord (rest-to-rest is D / V too), halved on the
+    cubic family's two-segment chords."""
+    problem = TimingProblem(VIA, "cubic", JointLimits.create(2, velocity=VELOCITY))
+    first, middle, last = _chord_times(VIA, VELOCITY)
+    expected = [first / 2, first / 2, middle, last / 2, last / 2]
+    for shape in start_shapes(problem).values():
+        np.testing.assert_allclose(shape, expected, rtol=1e-12)
+
+
+def test_a_short_chord_is_kept_above_a_thousandth_of_the_longest():
+    """A chord of 1e-7 rad: its time D / V is raised to 1e-3 of the longest chord's."""
+    via = np.array([[0.0], [2.0], [2.0 + 1e-7], [3.0]])
+    problem = TimingProblem(via, "hermite7", JointLimits.create(1, velocity=[0.5]))
+    for shape in start_shapes(problem).values():
+        np.testing.assert_allclose(shape, [2.0 / 0.5, 1e-3 * 2.0 / 0.5, (via[3, 0] - via[2, 0]) / 0.5], rtol=1e-12)
+
+
+def test_without_velocity_limits_the_cruise_shape_is_the_rest_to_rest_time():
+    """No velocity limit: ``cruise`` falls back to rest-to-rest, max_j 2 sqrt(D_j / A_j) under acceleration
+    limits alone."""
+    acceleration = np.array([2.0, 0.5])
+    problem = TimingProblem(VIA, "hermite7", JointLimits.create(2, acceleration=acceleration))
+    expected = [max(2 * np.sqrt(abs(VIA[c + 1, j] - VIA[c, j]) / acceleration[j]) for j in range(2))
+                for c in range(3)]
+    shapes = start_shapes(problem)
+    np.testing.assert_allclose(shapes["cruise"], expected, rtol=1e-12)
+    np.testing.assert_allclose(shapes["stop-at-turns"], expected, rtol=1e-12)
+
+
+def test_without_any_limit_every_chord_gets_the_same_time():
+    """Duration bounds and no limit: every chord's estimate is 0, so each gets the unit floor (1 s), split
+    among its segments."""
+    problem = TimingProblem(VIA, "cubic", JointLimits.create(2), bounds=(0.1, 5.0))
+    for shape in start_shapes(problem).values():
+        np.testing.assert_allclose(shape, [0.5, 0.5, 1.0, 0.5, 0.5], rtol=1e-12)

@@ -1,0 +1,153 @@
+"""Gaps in the tests of planner/timing/result.py found by mutation testing (mutmut)."""
+
+import time
+
+import numpy as np
+import pytest
+
+from planner import paper
+from planner.timing import TimingProblem
+from planner.timing.result import OptimizationResult, OutOfTime, SearchTracker, StartReport, remaining_time, time_limit
+
+
+def _problem():
+    """The paper's first four via-points and limits, cubic family: fast to evaluate."""
+    return TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG)[:4], "cubic", paper.paper_limits())
+
+
+def _start(label, iterations, objective=10.0, feasible=True):
+    return StartReport(label, objective, feasible, iterations, 1, "Solve_Succeeded", 0)
+
+
+def _result(starts):
+    return OptimizationResult("nlp", np.ones(2), 2.0, 2.0, np.zeros((3, 1)), True, 1, 0.0, [], "", None, starts=starts)
+
+
+def test_solver_iterations_add_up_over_the_starts():
+    assert _result([_start("a", 3), _start("b", 4), _start("c", 0)]).solver_iterations == 7
+    assert _result([]).solver_iterations == 0
+
+
+def test_without_a_time_limit_there_is_no_remaining_time():
+    assert remaining_time() is None
+    with time_limit(None):
+        assert remaining_time() is None
+    with time_limit(5.0):
+        pass
+    assert remaining_time() is None  # the limit ends with its block
+
+
+def test_a_limit_of_none_inside_another_keeps_the_outer_one():
+    with time_limit(2.0):
+        with time_limit(None):
+            assert 1.0 < remaining_time() <= 2.0
+        with time_limit(50.0):
+            assert 1.0 < remaining_time() <= 2.0
+        assert 1.0 < remaining_time() <= 2.0  # the inner blocks do not change the outer deadline
+
+
+def test_the_remaining_time_is_zero_once_the_limit_has_passed_not_negative():
+    with time_limit(1e-6):
+        time.sleep(0.01)
+        assert remaining_time() == 0.0
+
+
+def test_the_tracker_stops_at_the_time_limit_only_once_it_holds_a_candidate():
+    problem = _problem()
+    tracker = SearchTracker(problem)
+    with time_limit(1e-6):
+        time.sleep(0.01)
+        tracker.count(3)  # no candidate yet: the search goes on
+        with pytest.raises(OutOfTime) as stop:
+            tracker.evaluate(np.ones((2, problem.segment_count)))
+    assert stop.value.tracker is tracker and tracker.evaluations == 3 + 2
+    assert tracker.best_durations is not None and tracker.best_feasible
+
+
+def test_the_tracker_counts_every_evaluation_and_reports_each_iteration():
+    problem = _problem()
+    calls = []
+    tracker = SearchTracker(problem, lambda *args: calls.append(args), 4)
+    assert tracker.evaluations == 0 and tracker.history == [] and tracker.best_objective == np.inf
+    first = tracker.evaluate(np.ones((3, problem.segment_count)))
+    tracker.end_iteration()
+    tracker.count(5)
+    shapes = np.array([[1.0] * (problem.segment_count - 1) + [0.2]])
+    second = tracker.evaluate(shapes)
+    tracker.end_iteration()
+    best = min(first.objective.min(), second.objective.min())
+    assert tracker.evaluations == 3 + 5 + 1
+    assert tracker.history == [first.objective.min(), best]
+    assert calls == [(1, 4, first.objective.min()), (2, 4, best)]
+
+
+def test_the_result_reports_the_best_candidate_checked_again_as_durations():
+    problem = _problem()
+    tracker = SearchTracker(problem)
+    evaluation = tracker.evaluate(np.array([[1.0] * problem.segment_count, [0.5] * problem.segment_count]))
+    tracker.end_iteration()
+    tracker.starts.append(_start("s", 9))
+    result = tracker.result("test", "why", 7, {"k": 1})
+    best = int(np.argmin(evaluation.objective))
+    np.testing.assert_allclose(result.durations, evaluation.durations[best], rtol=0)
+    check = problem.evaluate_durations(evaluation.durations[best][None])
+    assert result.total_time == pytest.approx(evaluation.durations[best].sum(), rel=1e-15)
+    assert result.objective == pytest.approx(check.objective[0], rel=1e-15) and result.feasible
+    np.testing.assert_allclose(result.ratios, check.ratios[0], rtol=0)
+    assert result.max_ratio == pytest.approx(1.0, abs=1e-9)
+    assert (result.algorithm, result.stop_reason, result.seed, result.settings) == ("test", "why", 7, {"k": 1})
+    assert result.evaluations == 2 and result.history == [evaluation.objective.min()]
+    assert [s.label for s in result.starts] == ["s"] and result.solver_iterations == 9 and result.knot_states is None
+    assert 0.0 <= result.wall_time_s < 60.0
+
+
+def test_the_result_checks_free_states_with_the_states_the_search_chose():
+    """hermite7 (free via-point states): the result re-checks the best durations with the via-point states
+    that came with them (here all zero: rest at every via-point), not with the family's own rule, and
+    reports those states."""
+    problem = TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG)[:4], "hermite7", paper.paper_limits())
+    count, joints = 4, 6
+    states = np.zeros((1, count, joints, 3))
+    tracker = SearchTracker(problem)
+    evaluation = tracker.evaluate_states(np.ones((1, problem.segment_count)), states)
+    result = tracker.result("nlp", "", None, {})
+    at_rest = problem.evaluate_durations(evaluation.durations, states)
+    own_rule = problem.evaluate_durations(evaluation.durations)
+    np.testing.assert_allclose(result.ratios, at_rest.ratios[0], rtol=1e-12)
+    assert not np.allclose(result.ratios, own_rule.ratios[0], rtol=1e-3)
+    assert result.objective == pytest.approx(at_rest.objective[0], rel=1e-12) and result.feasible
+    np.testing.assert_array_equal(result.knot_states, states[0])
+
+
+def test_a_search_that_meets_only_infeasible_candidates_keeps_the_least_penalised_as_they_are():
+    """Raw durations (repair=False) far too short are infeasible and scored with a penalty, unrepaired; the
+    tracker keeps the least penalised one (it has no feasible one to prefer) and reports it infeasible."""
+    problem = _problem()
+    tracker = SearchTracker(problem)
+    short = np.array([[0.01] * problem.segment_count, [0.02] * problem.segment_count])
+    evaluation = tracker.evaluate(short, repair=False)
+    np.testing.assert_array_equal(evaluation.durations, short)
+    assert not evaluation.feasible.any()
+    assert tracker.best_durations is not None and not tracker.best_feasible
+    assert tracker.best_objective == evaluation.objective.min() > short.sum(axis=1).max()
+    result = tracker.result("cuckoo-paper", "", 0, {})
+    assert not result.feasible and result.total_time == pytest.approx(short[np.argmin(evaluation.objective)].sum())
+
+
+def test_within_one_batch_a_feasible_candidate_is_kept_before_a_less_penalised_infeasible_one():
+    """The tracker picks a batch's best among its feasible candidates when it has any: an infeasible one of
+    smaller (penalised) objective in the same batch is not taken, not even as the first best."""
+    from planner.timing.problem import Evaluation
+
+    problem = _problem()
+    segments = problem.segment_count
+
+    class Given:  # a problem whose evaluations are given: the tracker's rule alone is under test
+        def evaluate(self, candidates):
+            return Evaluation(np.array([[3.0] * segments, [2.0] * segments]), np.array([30.0, 20.0]),
+                              np.zeros((2, 3, 6)), np.zeros(2), np.array([True, False]))
+
+    tracker = SearchTracker(Given())
+    tracker.evaluate(np.zeros((2, segments)))
+    assert tracker.best_feasible and tracker.best_objective == 30.0
+    np.testing.assert_array_equal(tracker.best_durations, [3.0] * segments)
