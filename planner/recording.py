@@ -236,12 +236,13 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
     names = result.joint_names
     rate_hz = rate_hz or result.task.sample_rate_hz
     times = trajectory.sample_times(rate_hz)
-    positions = trajectory.evaluate(times)  # every sample: the robot's motion, and what replay --check reads
     time_index = [rr.TimeColumn("time", duration=times)]
     if len(times) > PROFILE_SAMPLES:  # what a person looks at: the trajectory's own values, at fewer times
         plot_times, plot_values = trajectory.sample(PROFILE_SAMPLES / trajectory.total_time)
+        positions = trajectory.evaluate(times)  # every sample: the robot's motion, and what replay --check reads
     else:
         plot_times, plot_values = times, trajectory.states(times)
+        positions = plot_values[0]
     plot_index = [rr.TimeColumn("time", duration=plot_times)]
     rec = rr.RecordingStream(APPLICATION_ID, recording_id=f"{result.task.name}-{id(result)}")
     # Into memory, then one ordinary write: Rerun's own file sink left the plan hanging for good (deaf
