@@ -617,3 +617,34 @@ def test_acceleration_and_jerk_limits_far_above_the_motion_change_nothing():
     assert [start.status for start in with_them.starts] == ["Solve_Succeeded"] * len(with_them.starts)
     assert with_them.total_time == pytest.approx(without.total_time, rel=1e-6)
     assert with_them.feasible and without.feasible
+
+
+def test_casadi_blas_runs_on_one_thread(paper_via, paper_limits):
+    """IPOPT's linear solver calls CasADi's bundled OpenBLAS: once a program is built, it runs on one
+    thread (its idle threads otherwise spin for CPU the other start's process needs)."""
+    import ctypes
+    import os
+    from pathlib import Path
+
+    import casadi
+
+    from planner.timing.nlp import CASADI_BLAS, single_threaded_blas
+
+    if not list(Path(casadi.__file__).parent.glob(CASADI_BLAS)):
+        pytest.skip("this CasADi build bundles no OpenBLAS")
+    problem = TimingProblem(paper_via, "hybrid", paper_limits)
+    TimingNLP(problem, np.asarray(paper.DURATIONS_S)).blocks  # builds a program: IPOPT and its BLAS load
+    loaded = [path for path in Path(casadi.__file__).parent.glob(CASADI_BLAS)
+              if _loaded(ctypes, os, path)]
+    assert len(loaded) == 1
+    assert ctypes.CDLL(str(loaded[0]), mode=os.RTLD_NOLOAD).openblas_get_num_threads() == 1
+    assert single_threaded_blas() == 1
+
+
+def _loaded(ctypes, os, path) -> bool:
+    """Whether the shared library at ``path`` is loaded in this process."""
+    try:
+        ctypes.CDLL(str(path), mode=os.RTLD_NOLOAD)
+    except OSError:
+        return False
+    return True

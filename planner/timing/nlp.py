@@ -67,11 +67,15 @@ tight; nothing is reported feasible that the exact check did not pass.
 
 from __future__ import annotations
 
+import ctypes
+import functools
 import itertools
 import logging
+import os
 import time
 from dataclasses import dataclass, replace
 from math import factorial
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -475,6 +479,38 @@ class TimingNLP:
         return program
 
 
+#: The OpenBLAS that CasADi bundles, which MUMPS (IPOPT's linear solver) calls (a glob in CasADi's folder:
+#: the wheel holds it under several names, of which the one loaded is found).
+CASADI_BLAS = "libcasadi-tp-openblas*"
+
+
+@functools.cache
+def single_threaded_blas() -> int | None:
+    """Have the OpenBLAS that CasADi bundles run on one thread in this process (and the processes it
+    forks); returns its thread count after, or None where that library is not found (another build).
+
+    It loads with IPOPT (the first ``nlpsol``) and starts a thread per core, which spins
+    (``sched_yield``) between MUMPS's calls: 1.15 million calls, 4.2 s of system time in a 12 s run
+    of two 1024-via-point solves; MUMPS's fronts on these banded systems are too small for threads
+    to help. On two cores the spinning takes time from the other start's process and from the output
+    writers' imports: ``planner plan`` on a clipped 1024-via-point walk (hybrid), optimization
+    2.0 -> 1.7 s; on a smooth one 0.9-1.15 -> 0.87 s (medians of 2, ``scripts/bench_scale.py``'s walks).
+    """
+    import casadi as ca
+
+    loaded_only = getattr(os, "RTLD_NOLOAD", None)  # never load a second copy: the wheel holds several files
+    if loaded_only is None:
+        return None
+    for path in sorted(Path(ca.__file__).parent.glob(CASADI_BLAS)):
+        try:
+            library = ctypes.CDLL(str(path), mode=loaded_only)
+            library.openblas_set_num_threads(1)
+            return int(library.openblas_get_num_threads())
+        except (OSError, AttributeError):  # not the copy IPOPT loaded, or a build without these calls
+            continue
+    return None
+
+
 def _place(certificates: list[Certificate], placed: dict[tuple, list[Certificate]], found: Certificate,
            location: float) -> bool:
     """Add ``found`` for an extreme at ``location`` unless a certificate already covers it;
@@ -587,6 +623,7 @@ class _Program:
             options["ipopt.max_wall_time"] = max(remaining, 1e-3)
         self.solver = ca.nlpsol("timing", "ipopt", {"x": variables, "f": objective / scales.time,
                                                     "g": ca.vertcat(*rows), "p": model}, options)
+        single_threaded_blas()
         self.built = time.monotonic()
 
     def reusable(self) -> bool:
