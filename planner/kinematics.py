@@ -20,7 +20,7 @@ from math import comb
 import numpy as np
 
 from .errors import InputError
-from .limits import FEASIBILITY_TOLERANCE, LIMITED, JointLimits, in_degrees, time_scale_factor
+from .limits import FEASIBILITY_TOLERANCE, LIMITED, JointLimits, in_degrees_apart, time_scale_factor
 from .read_only import ReadOnlyArrays, freeze_arrays
 from .splines import PiecewisePolynomial, derivative_coefficients, polyval, powers
 
@@ -357,11 +357,13 @@ class Violation:
         return abs(self.value) / self.limit if self.order else 0.0
 
     def __str__(self) -> str:
-        if self.order:
-            return (f"joint {self.joint} {self.quantity} {in_degrees(self.value, self.order)} exceeds its limit "
-                    f"{in_degrees(self.limit, self.order)}")
+        if self.order:  # as many digits as the magnitude and the limit take to differ; the value keeps its sign
+            magnitude, limit = in_degrees_apart(abs(self.value), self.limit, self.order)
+            value = f"-{magnitude}" if self.value < 0 else magnitude
+            return f"joint {self.joint} {self.quantity} {value} exceeds its limit {limit}"
+        value, limit = in_degrees_apart(self.value, self.limit, 0)
         where = "below its lower" if self.side == "lower" else "above its upper"
-        return f"joint {self.joint} position {in_degrees(self.value, 0)} is {where} limit {in_degrees(self.limit, 0)}"
+        return f"joint {self.joint} position {value} is {where} limit {limit}"
 
 
 @dataclass(frozen=True)

@@ -552,22 +552,23 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         with time_limit(max(deadline - time.monotonic(), 0.0)):  # nested: the run's own limit cannot outlast it
             result = optimize(problem, settings["algorithm"], seed=settings["seed"], progress=progress,
                               time_limit_s=settings["time_limit"], **settings["settings"])
+        trajectory = problem.trajectory(result.durations, result.knot_states)
+        found = kinematic_figures(trajectory).violations(limits)  # the trajectory built, checked once more
         progress.note(f"{progress.label}: total time {result.total_time:.6g} s, "
-                      f"{'feasible' if result.feasible else 'INFEASIBLE'} ({result.wall_time_s:.2f} s)")
-        if not result.feasible:
-            found = kinematic_figures(problem.trajectory(result.durations, result.knot_states)).violations(limits)
+                      f"{'feasible' if result.feasible and not found else 'INFEASIBLE'} ({result.wall_time_s:.2f} s)")
+        if not result.feasible or found:
             worst = max(found, key=lambda violation: violation.ratio, default=None)
             if worst is None and problem.bounds is not None and not (
                     problem.bounds[0] * (1 - 1e-12) <= result.durations.min()
                     and result.durations.max() <= problem.bounds[1] * (1 + 1e-12)):
                 raise _outside_bounds(problem, result)
-            reasons = ([f"largest constraint ratio {result.max_ratio:.6g} (limit 1)"]
+            reasons = ([f"largest constraint ratio {result.max_ratio:.12g} (limit 1)"]
                        if result.max_ratio > 1 + FEASIBILITY_TOLERANCE or worst is None else []) + \
                 ([str(worst)] if worst else [])  # a position alone leaves the ratio at 1: no word of it then
             raise InfeasibleError(f"no feasible timing found by {result.algorithm}; in its best timing, "
                                   f"{'; '.join(reasons)}"
                                   + _on_bound_hint(problem, found), violation=worst)
-        return problem.trajectory(result.durations, result.knot_states), (problem, result)
+        return trajectory, (problem, result)
 
     def timed_or_none(points: np.ndarray, rule: str):
         """``time_via_points`` of one branch rule's IK sequence, or None where it cannot be timed."""
@@ -658,5 +659,8 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
     check_sample_count(task, trajectory.total_time, slowed=met)
     if figures is None:
         figures = kinematic_figures(trajectory)
+    exceeded = max(figures.violations(limits), key=lambda violation: violation.ratio, default=None)
+    if exceeded is not None:  # never returned, whatever stage let it through (each checks its own result)
+        raise InfeasibleError(f"the planned trajectory fails the exact check: {exceeded}", violation=exceeded)
     return PlanResult(task, via, limits, result, trajectory, figures, timings, robot, ik, path, branch_times, kept,
                       met)

@@ -177,7 +177,7 @@ def plan_summary(result) -> str:
     ratios = np.nan_to_num(figures.ratios(result.limits))
     names = result.joint_names
     robot = getattr(result, "robot", None)
-    feasible = bool(result.optimization.feasible)
+    feasible = bool(result.feasible)
     largest = [int(np.argmax(ratios[d])) for d in range(len(QUANTITIES))]
     return "\n".join([
         f"### {_markdown_text(result.task.name)}: {'feasible' if feasible else 'NOT feasible (a limit is exceeded)'}",
@@ -251,7 +251,7 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
     rec.send_recording_name(result.task.name)
     rec.send_property("plan", rr.AnyValues(
         task=result.task.name, family=result.task.family, optimizer=optimizer_name(result),
-        total_time_s=trajectory.total_time, feasible=bool(result.optimization.feasible),
+        total_time_s=trajectory.total_time, feasible=bool(result.feasible),
         joints=", ".join(names)))
     definition = trajectory_definition(trajectory, result.limits, names)
     rec.log(_DEFINITION, rr.AnyValues(planner_definition=json.dumps(definition)), static=True)

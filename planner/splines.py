@@ -112,8 +112,9 @@ class PiecewisePolynomial(ReadOnlyArrays):
 
     @property
     def total_time(self) -> float:
-        """T = sum of h_k [s]."""
-        return float(self.durations.sum())
+        """T = sum of h_k [s], summed in order: the last of ``knot_times`` (numpy's pairwise ``sum`` can
+        differ from it in the last digit, and the trajectory's end would not be its last knot)."""
+        return float(self.knot_times[-1])
 
     @property
     def knot_times(self) -> np.ndarray:
@@ -509,18 +510,24 @@ class QuinticFamily(SplineFamily):
         return np.arange(via_count)
 
     def batch_coefficients(self, via_points: np.ndarray, durations: np.ndarray) -> np.ndarray:
-        """The quintic spline's coefficients: zero end velocity and acceleration, C4 inside (class docstring)."""
+        """The quintic spline's coefficients: zero end velocity and acceleration, C4 inside (class docstring).
+
+        Interpolated relative to the first via-point, which is added back to c_0: the B-spline's linear
+        solve rounds relative to the positions' magnitude, so a joint at 720 deg moving 1e-4 deg had
+        its jerk 1e-9 off, beyond the exact check's tolerance, where at 0 deg it was not."""
         from scipy.interpolate import make_interp_spline  # imported where used: 0.1 s of every run's start
 
         batch, segments = durations.shape
         joints = via_points.shape[1]
         zero_ends = ([(1, np.zeros(joints)), (2, np.zeros(joints))],) * 2
         result = np.empty((batch, segments, joints, 6))
+        origin = via_points[0]
         for b in range(batch):
             times = np.concatenate(([0.0], np.cumsum(durations[b])))
-            spline = make_interp_spline(times, via_points, k=5, bc_type=zero_ends)
+            spline = make_interp_spline(times, via_points - origin, k=5, bc_type=zero_ends)
             # Taylor coefficients at each segment's left knot: c_i = q^(i)(t_k) / i!.
             result[b] = np.stack([spline(times[:-1], nu=i) / factorial(i) for i in range(6)], axis=-1)
+        result[..., 0] = via_points[:-1]  # the interpolation's own values, exactly
         return result
 
 

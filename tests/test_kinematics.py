@@ -7,6 +7,7 @@ from scipy.integrate import quad
 from conftest import via_and_durations
 from planner import JointLimits, get_family, kinematic_figures, paper, time_scale_factor
 from planner.kinematics import batch_scale_factors, column_roots, max_abs
+from planner.limits import in_degrees_apart
 
 # Reference maxima, computed independently of this code: hybrid spline, Table II via-points, Table IV
 # durations [deg/s^k].
@@ -270,8 +271,9 @@ def test_a_position_violation_reads_above_or_below_and_the_tolerance_is_exact(pa
         assert [v.side for v in found] == expected
     (violation,) = found
     assert (violation.quantity, violation.order, violation.index) == ("position", 0, 2)
-    assert str(violation) == (f"joint joint3 position {np.rad2deg(top):.6g} deg is above its upper limit "
-                              f"{np.rad2deg(top - 1.5e-9):.6g} deg")
+    value, limit = in_degrees_apart(top, top - 1.5e-9, 0)  # as many digits as it takes to tell them apart
+    assert str(violation) == f"joint joint3 position {value} is above its upper limit {limit}"
+    assert value != limit
 
 
 # ------------------------------------------------------------ roots against numpy's (from a mutation run)
@@ -417,3 +419,14 @@ def test_a_cubic_with_a_leading_coefficient_near_rounding_keeps_its_roots():
     trajectory = PiecewisePolynomial(np.ones(1), coefficients, np.array([0, 1]))
     exact = quad(lambda t: abs(2 * t - 4 * t ** 3 + 5e-9 * t ** 4), 0, 1, points=[2 ** -0.5])[0]
     assert kinematic_figures(trajectory).mean_abs[0, 0] == pytest.approx(exact, rel=1e-9)
+
+
+def test_a_violation_names_its_value_and_limit_apart():
+    """A value a hair beyond its limit is printed with the digits that show it (1.3e-9 rad past a
+    range read "25.5301 deg is above its upper limit 25.5301 deg"); a magnitude keeps its sign."""
+    from planner.kinematics import Violation
+
+    position = str(Violation("joint1", 0, "position", 0, 0.44558371809602954, 0.44558371678566416, "upper"))
+    assert position == "joint joint1 position 25.5300665 deg is above its upper limit 25.5300664 deg"
+    jerk = str(Violation("j", 0, "jerk", 3, -np.deg2rad(1e-4) * (1 + 1e-8), np.deg2rad(1e-4)))
+    assert jerk == "joint j jerk -0.000100000001 deg/s^3 exceeds its limit 0.0001 deg/s^3"

@@ -469,3 +469,40 @@ def test_write_replaces_nothing_and_the_results_arrays_are_read_only(tmp_path):
                   cartesian.path.waypoint_via):
         with pytest.raises(ValueError, match="read-only"):
             array[0] = 123
+
+
+def test_a_trajectory_the_exact_check_fails_is_never_returned_or_written(tmp_path, monkeypatch):
+    """Whatever the optimizer reported, the trajectory built is checked exactly once more: one that
+    exceeds a limit is refused with the violation named, and nothing is written."""
+    from planner.dynamics import slowed
+    from planner.timing import TimingProblem
+
+    built = TimingProblem.trajectory
+    monkeypatch.setattr(TimingProblem, "trajectory", lambda self, *args: slowed(built(self, *args), 0.999))
+    document = {"version": 1, "name": "faster", "waypoints": {"joints_deg": [[0, 0], [40, -20], [90, 10]]},
+                "limits": {"velocity_deg_s": [50, 50], "acceleration_deg_s2": [100, 100], "jerk_deg_s3": [500, 500]}}
+    with pytest.raises(InfeasibleError, match=r"joint joint\d \w+ [\d.]+ deg/s\S* exceeds its limit") as caught:
+        plan(document)
+    assert caught.value.value is not None and abs(caught.value.value) > caught.value.limit
+    (tmp_path / "task.yaml").write_text(yaml.safe_dump(document))
+    assert main(["plan", str(tmp_path / "task.yaml"), "--out", str(tmp_path / "out"), "--quiet"]) == 2
+    assert not (tmp_path / "out").exists()
+
+
+def test_ranges_the_nlp_would_end_a_hair_outside_plan():
+    """Ranges half a degree around the via-points: IPOPT's relaxed bounds left both starts 1.3e-9 rad
+    beyond a range (past the exact check's 1e-9) and the task was refused; its bounds now hold exactly."""
+    task = planner.make_task(
+        name="tight_ranges", trajectory={"family": "cubic"}, optimizer={"algorithm": "nlp"},
+        joints_deg=[[25.030066391571133, 7.753575269460626, 0.8470587959708311],
+                    [24.842472515181388, -7.395529408899524, -28.445299671478818],
+                    [6.386601154300028, 4.126397844010828, -46.40889623225911],
+                    [-1.4412202095675717, -25.649547632864614, -26.606032444154373]],
+        limits={"velocity_deg_s": [14.27121934089908, 18.51822278310826, 75.91579667892603],
+                "acceleration_deg_s2": [58.16827901330455, 186.51998400896062, 91.11203576359559],
+                "jerk_deg_s3": [409.8797107382672, 43.37539148989955, 204.98200276454855],
+                "position_deg": [[-1.9412202095675717, 25.530066391571133], [-26.149547632864614, 8.253575269460626],
+                                 [-46.90889623225911, 1.3470587959708311]]})
+    result = plan(task)
+    assert result.feasible and result.trajectory.total_time == pytest.approx(7.99017, abs=1e-4)
+    assert_plan_holds(result)

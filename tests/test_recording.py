@@ -408,7 +408,7 @@ def test_any_joint_and_task_name_is_logged_as_one_entity_and_read_back(tmp_path,
     trajectory = get_family("cubic").build(via, trajectory.durations)
     limits = JointLimits.create(len(NAMES), upper=[2.0] * len(NAMES), velocity=[5.0] * len(NAMES))
     result = SimpleNamespace(
-        trajectory=trajectory, joint_names=NAMES, limits=limits, robot=None,
+        trajectory=trajectory, joint_names=NAMES, limits=limits, robot=None, feasible=True,
         task=SimpleNamespace(name="task $\\frac{$ / 关节 😀", family="cubic", sample_rate_hz=RATE_HZ,
                              optimizer={"algorithm": "test"}),
         optimization=SimpleNamespace(algorithm="test", feasible=True))
@@ -739,7 +739,7 @@ def test_a_long_slow_recording_reads_back_whole(tmp_path):
     """200,001 samples (a 4000 s trajectory at 50 Hz): every one is read back, in order, exactly."""
     trajectory, limits, _, _ = small_plan()
     slow = get_family("cubic").build([[0.0, 0.0], [0.5, -1.0], [1.0, 0.5]], [1000.0] * 4)
-    result = SimpleNamespace(trajectory=slow, joint_names=["a", "b"], limits=limits, robot=None,
+    result = SimpleNamespace(trajectory=slow, joint_names=["a", "b"], limits=limits, robot=None, feasible=True,
                              task=SimpleNamespace(name="slow", family="cubic", sample_rate_hz=RATE_HZ,
                                                   optimizer={"algorithm": "test"}),
                              optimization=SimpleNamespace(algorithm="test", feasible=True))
@@ -804,3 +804,20 @@ def test_a_robot_with_locked_joints_outside_neutral_records_without_a_warning(tm
         warnings.simplefilter("error")
         write_recording(result, tmp_path / "r.rrd")
     read_recording(tmp_path / "r.rrd")
+
+
+def test_the_summary_panel_says_what_the_exact_check_says():
+    """The panel's verdict is the plan's (``PlanResult.feasible``: the exact check of the trajectory
+    written), not the optimizer's own flag."""
+    from planner.recording import plan_summary
+
+    trajectory, limits, _, _ = small_plan()
+    verdicts = []
+    for feasible in (True, False):
+        result = SimpleNamespace(trajectory=trajectory, joint_names=["a", "b"], limits=limits, robot=None,
+                                 feasible=feasible, task=SimpleNamespace(name="t", family="cubic",
+                                                                         sample_rate_hz=RATE_HZ,
+                                                                         optimizer={"algorithm": "test"}),
+                                 optimization=SimpleNamespace(algorithm="test", feasible=True))
+        verdicts.append(plan_summary(result).splitlines()[0])
+    assert verdicts == ["### t: feasible", "### t: NOT feasible (a limit is exceeded)"]

@@ -590,3 +590,22 @@ def test_bounds_a_hair_too_short_say_by_how_much_the_limit_is_exceeded():
     with pytest.raises(InfeasibleError, match=r"limit [0-9.]+ deg/s\S* \(1\.00000000[1-3] times it\)"):
         TimingProblem(via, "hybrid", limits, bounds=(h, h))
     TimingProblem(via, "hybrid", limits, bounds=(shortest, shortest))  # the shortest itself is feasible
+
+
+@pytest.mark.parametrize("family", ["cubic", "hybrid", "quintic", "hermite7"])
+@pytest.mark.parametrize("offset_deg", [720.0, -99990.0])
+def test_timing_does_not_depend_on_where_the_joints_sit(family, offset_deg):
+    """The same motion of 1e-4 deg, at 0 deg and far from it, under limits of its own size: the same
+    optimum, feasible by the exact check at both places (quintic's B-spline and the NLP's coefficients
+    rounded relative to the positions: a jerk 1e-9 over its limit at 720 deg, refused at 3600 deg)."""
+    motion = np.deg2rad(np.array([[0.0, 0.0], [1e-4, -2e-4], [3e-5, 0.5e-4], [1.5e-4, 1e-4]]))
+    small = np.deg2rad(np.array([1e-4, 1e-4]))
+    limits = JointLimits.create(2, velocity=small, acceleration=small, jerk=10 * small)
+    totals = []
+    for offset in (0.0, np.deg2rad(offset_deg)):
+        problem = TimingProblem(motion + offset, family, limits)
+        result = optimize(problem, "default")
+        trajectory = problem.trajectory(result.durations, result.knot_states)
+        assert result.feasible and not kinematic_figures(trajectory).violations(limits)
+        totals.append(result.total_time)
+    assert totals[1] == pytest.approx(totals[0], rel=1e-6)

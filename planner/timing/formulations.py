@@ -143,6 +143,14 @@ class SplineFormulation:
         """J, the number of joints."""
         return self.via_points.shape[1]
 
+    @property
+    def relative_via_points(self) -> np.ndarray:
+        """(n, J) the via-points relative to the first [rad]. The formulations build every coefficient but
+        b_0 (and every continuity condition) from these: from the absolute positions, a constant times a
+        joint's position at 720 deg (12.6 rad) minus the same times the next one's rounds at 1e-15 of
+        12.6 rad, where a motion of 1e-4 deg (2e-6 rad) needs 1e-10 of it."""
+        return self.via_points - self.via_points[0]
+
     def build(self, h) -> SymbolicSpline:
         """The spline for symbolic durations ``h`` (S x 1) [s]."""
         raise NotImplementedError
@@ -217,7 +225,7 @@ class CubicFormulation(SplineFormulation):
         """The cubic or hybrid spline for symbolic durations ``h`` (class docstring)."""
         import casadi as ca
 
-        via, scales = self.via_points, self.scales
+        via, scales = self.relative_via_points, self.scales
         n, joints = via.shape
         segments = n + 1
         hybrid = self.family.name == "hybrid"
@@ -244,10 +252,12 @@ class CubicFormulation(SplineFormulation):
             factor[[0, -1]] = HYBRID_END_JERK
         for j in np.flatnonzero(np.isfinite(jerk)).tolist():
             constraints.append((ca.DM(factor) * (m1[:, j] - m0[:, j]) / (jerk[j] * h), -1.0, 1.0))
-        lower, upper = self.limits.lower, self.limits.upper
+        origin = self.via_points[0]
+        lower, upper = self.limits.lower - origin, self.limits.upper - origin  # of the relative positions
         for j in np.flatnonzero(np.isfinite(lower) | np.isfinite(upper)).tolist():
             constraints.append((ca.vertcat(first[j], last[j]), lower[j], upper[j]))
-        cubic = [y[:-1, :], v0 * duration, m0 * duration ** 2 / 2, (m1 - m0) * duration ** 2 / 6]
+        cubic = [y[:-1, :] + _per_joint(ca, origin, segments), v0 * duration, m0 * duration ** 2 / 2,
+                 (m1 - m0) * duration ** 2 / 6]
         all_segments = np.arange(segments)
         if hybrid:
             ends = np.array([0, segments - 1])
@@ -318,7 +328,7 @@ class QuinticFormulation(SplineFormulation):
         """The quintic spline for symbolic durations ``h`` (class docstring)."""
         import casadi as ca
 
-        via, scales = self.via_points, self.scales
+        via, scales = self.relative_via_points, self.scales
         n, joints = via.shape
         segments = n - 1
         inner, ends = max(n - 2, 0), n
@@ -364,6 +374,7 @@ class QuinticFormulation(SplineFormulation):
                     lower[index] = 0.0
                 elif sides[knot, joint] * inward > 0:
                     upper[index] = 0.0
+        coefficients[0] = _columns(ca, self.via_points[:-1])  # b_0: each segment starts at its via-point
         return SymbolicSpline(states, lower, upper, ca.vertcat(*equalities),
                               blocks=[SegmentBlock(np.arange(segments), coefficients, (0, 1, 2, 3))])
 
@@ -405,7 +416,7 @@ class Hermite7Formulation(SplineFormulation):
         """The Hermite segments for symbolic durations ``h`` and the state variables."""
         import casadi as ca
 
-        via, scales = self.via_points, self.scales
+        via, scales = self.relative_via_points, self.scales
         n, joints = via.shape
         inner = n - 2
         states = ca.MX.sym("knot_states", 3 * inner * joints)
@@ -420,6 +431,7 @@ class Hermite7Formulation(SplineFormulation):
         ends += [_columns(ca, via[1:])] + [knots[d - 1][1:, :] * powers[d] for d in range(1, 4)]
         coefficients = [sum(HERMITE7_MAP[i, c] * ends[c] for c in range(8) if HERMITE7_MAP[i, c] != 0)
                         for i in range(8)]
+        coefficients[0] = _columns(ca, self.via_points[:-1])  # b_0: each segment starts at its via-point
         bounds = np.concatenate([self._scaled_bounds(order, inner) for order in range(1, 4)])
         bounds[:inner * joints] = np.where((self.resting_sides()[1:-1] != 0).T.ravel(), 0.0, bounds[:inner * joints])
         return SymbolicSpline(states, -bounds, bounds, ca.MX(0, 1),

@@ -128,9 +128,14 @@ DURATION_FLOOR = 1e-6
 #: (clipped walks, hybrid, 256 to 1024 via-points, seeds 1-8, both starts: 1897 -> 1648 iterations,
 #: the slowest start 135 -> 80, and the better start's optimum 0.023 % lower on average; smooth walks,
 #: cubic, quintic and hermite7 no worse).
+#: ``bound_relax_factor`` 0: IPOPT's default relaxes every bound by 1e-8 of it, so a solution may end
+#: that far beyond a position range, past the exact check's 1e-9 rad, where time scaling cannot mend it
+#: (a cubic through 4 via-points with ranges 0.5 deg around them: both starts 1.3e-9 rad out, the
+#: task refused; now solved). Clipped 1024-via-point walks (hybrid, seeds 1025 + 1000 k, k < 8): the
+#: same optima, 854 -> 892 iterations over both starts.
 IPOPT_OPTIONS = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False, "ipopt.tol": 1e-10,
                  "ipopt.constr_viol_tol": 1e-10, "ipopt.max_iter": 500, "ipopt.mumps_mem_percent": 50,
-                 "ipopt.alpha_for_y": "safer-min-dual-infeas"}
+                 "ipopt.alpha_for_y": "safer-min-dual-infeas", "ipopt.bound_relax_factor": 0.0}
 
 #: Random duration shapes tried where every start ends outside a position range (``_range_feasible_start``).
 RANGE_SHAPES = 50
