@@ -18,9 +18,11 @@ samples, slowed too, where the law below holds exactly). Running the whole traje
 * the tool's speeds are divided by k, so k = largest speed / limit meets them;
 * the torque becomes tau_k = g(q) + (tau - g(q)) / k^2 (gravity stays), so
   with x = 1 / k^2 in (0, 1] each sample and joint needs
-  -L <= g + x (tau - g) <= L, a bound on x that is exact at the samples
-  (``torque_slow_down``). Where gravity alone exceeds the limit no slow-down
-  helps: that is an ``InfeasibleError`` naming the joint and where.
+  -L <= g + x (tau - g) <= L, bounds on x that are exact at the samples
+  (``torque_slow_down``). Where gravity alone exceeds the limit, only the motion's
+  own torque holds the joint within it: slowing down weakens that, so such a sample
+  bounds k from above, and where the joint rests there no timing helps. Where no k
+  meets every sample, that is an ``InfeasibleError`` naming the joint and where.
 
 The kinematic limits only become slacker when slowing down, so the kinematic
 optimum, slowed by the smallest such k, meets every limit: feasible, though not
@@ -157,24 +159,31 @@ def _check_inertias(robot: Robot) -> None:
                                  f"{robot.urdf_path}", path=robot.urdf_path)
 
 
-def torque_slow_down(torque: np.ndarray, gravity: np.ndarray, limit: np.ndarray) -> np.ndarray:
-    """(K, J) the smallest slow-down k >= 1 after which each sample's torque is within +-limit.
+def torque_slow_down(torque: np.ndarray, gravity: np.ndarray, limit: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(lowest, highest), each (K, J): the slow-downs k >= 1 after which each sample's torque is within
+    +-limit form the interval [lowest, highest] (lowest = inf: none does).
 
-    Slowed k times, a sample's torque is g + (tau - g) / k^2. With x = 1 / k^2: where |tau| <= L,
-    x = 1 serves; where tau > L (then tau > g, as |g| <= L), x <= (L - g) / (tau - g); where
-    tau < -L, x <= (-L - g) / (tau - g). k = 1 / sqrt(x). Samples whose gravity torque alone
-    exceeds the limit get k = inf (no slow-down helps).
+    Slowed k times, a sample's torque is g + x (tau - g), x = 1 / k^2 in (0, 1]. With d = tau - g,
+    -L <= g + x d <= L bounds x on both sides: x <= (L - g) / d and x >= (-L - g) / d where d > 0,
+    the reverse where d < 0, nothing where d = 0 (then |g| <= L decides). Where |g| <= L, x -> 0 is
+    inside (any slower pace serves: highest = inf); where gravity alone exceeds the limit only a
+    pace fast enough for the motion's own torque to hold it back can (highest finite), and none at
+    rest (d = 0). k = 1 / sqrt(x).
 
     Args:
         torque, gravity: (K, J) tau and g(q) [N m]; limit: (J,) L [N m].
     """
-    x = np.ones_like(torque)
+    difference = torque - gravity
     with np.errstate(divide="ignore", invalid="ignore"):
-        above, below = torque > limit, torque < -limit
-        x = np.where(above, (limit - gravity) / (torque - gravity), x)
-        x = np.where(below, (-limit - gravity) / (torque - gravity), x)
-        slow_down = 1.0 / np.sqrt(np.clip(x, 0.0, 1.0))
-    return np.where(np.abs(gravity) > limit, np.inf, slow_down)
+        upper, lower = (limit - gravity) / difference, (-limit - gravity) / difference
+        x_high = np.where(difference > 0, upper, np.where(difference < 0, lower, np.inf))
+        x_low = np.where(difference > 0, lower, np.where(difference < 0, upper, -np.inf))
+        x_high, x_low = np.minimum(x_high, 1.0), np.maximum(x_low, 0.0)
+        empty = (x_low > x_high) | (x_high <= 0) | ((difference == 0) & (np.abs(gravity) > limit))
+        lowest = np.where(empty, np.inf, 1.0 / np.sqrt(np.where(empty, 1.0, x_high)))
+        highest = np.where(empty, 0.0, 1.0 / np.sqrt(np.where(empty | (x_low == 0), 1.0, x_low)))
+        highest = np.where(~empty & (x_low == 0), np.inf, highest)
+    return lowest, highest
 
 
 def slowed(trajectory: PiecewisePolynomial, factor: float) -> PiecewisePolynomial:
@@ -266,6 +275,47 @@ class RobotLimitOutcome(ReadOnlyArrays):
         return figures
 
 
+def _where(times: np.ndarray, sample, waypoint_times: np.ndarray) -> str:
+    """``t = ... s (nearest waypoint w)`` of check sample ``sample`` (an index)."""
+    waypoint = int(np.argmin(np.abs(waypoint_times - times[sample])))
+    return f"t = {times[sample]:.4g} s (nearest waypoint {waypoint})"
+
+
+def _gravity_beyond(robot: Robot, check: RobotLimitCheck, gravity: np.ndarray, limit: np.ndarray,
+                    hopeless: np.ndarray, waypoint_times: np.ndarray) -> InfeasibleError:
+    """The error where some (K, J) samples (``hopeless``) meet a torque limit at no slow-down: gravity alone
+    exceeds it there, and either the joint rests (no timing helps) or its motion holds gravity back only
+    at a faster pace than the plan's. A resting sample is named first, then the largest excess."""
+    assert check.torque is not None
+    resting = hopeless & (np.abs(check.torque - gravity) <= 1e-9 * np.maximum(np.abs(gravity), 1.0))
+    chosen = resting if resting.any() else hopeless
+    k, joint = np.unravel_index(int(np.argmax(np.where(chosen, np.abs(gravity) / limit, -np.inf))), gravity.shape)
+    reason = ("it rests there: no timing helps" if resting.any() else
+              f"the motion there ({check.torque[k, joint]:.4g} N m in all) holds it back only at a faster pace than "
+              f"the kinematic optimum's: no slow-down helps")
+    return InfeasibleError(f"joint {robot.joint_names[joint]!r} needs {gravity[k, joint]:.4g} N m just to hold "
+                           f"still at {_where(check.times, k, waypoint_times)}, beyond its torque limit "
+                           f"{limit[joint]:.4g} N m; {reason}; raise limits.torque_nm or move the waypoints",
+                           joint=int(joint), quantity="torque", value=float(gravity[k, joint]),
+                           limit=float(limit[joint]))
+
+
+def _no_common_slow_down(robot: Robot, check: RobotLimitCheck, gravity: np.ndarray, limit: np.ndarray,
+                         highest: np.ndarray, needed: float, allowed: float,
+                         waypoint_times: np.ndarray) -> InfeasibleError:
+    """The error where the limits need a slow-down of ``needed`` while a joint whose gravity torque alone
+    exceeds its limit at some sample keeps within it only up to ``allowed`` (the motion's own torque
+    holds gravity back there, less the slower it runs)."""
+    assert check.torque is not None
+    k, joint = np.unravel_index(int(np.argmin(highest)), highest.shape)
+    return InfeasibleError(f"no uniform slow-down meets every robot limit: they need {needed:.6g} times slower, but "
+                           f"joint {robot.joint_names[joint]!r} needs {gravity[k, joint]:.4g} N m just to hold still "
+                           f"at {_where(check.times, k, waypoint_times)}, beyond its torque limit {limit[joint]:.4g} "
+                           f"N m, and its motion holds that back only up to {allowed:.6g} times slower; raise "
+                           f"limits.torque_nm or move the waypoints", joint=int(joint), quantity="torque",
+                           value=float(gravity[k, joint]), limit=float(limit[joint]))
+
+
 def meet_robot_limits(robot: Robot, trajectory: PiecewisePolynomial, torque_limit: np.ndarray | None,
                       tool_speed: float | None, tool_angular_speed: float | None,
                       waypoint_times: np.ndarray) -> tuple[PiecewisePolynomial, RobotLimitOutcome]:
@@ -277,30 +327,29 @@ def meet_robot_limits(robot: Robot, trajectory: PiecewisePolynomial, torque_limi
         waypoint_times: (n,) times [s] of the task's waypoints, to say where a gravity torque fails.
 
     Raises:
-        InfeasibleError: gravity alone exceeds a joint's torque limit somewhere on the path, naming
-            the joint, the torque, the limit and the nearest waypoint.
+        InfeasibleError: no slow-down meets the limits (gravity alone exceeds a joint's torque limit
+            where it rests, or where only a faster pace holds it back; or that bounds the slow-down
+            below what the other limits need), naming the joint, the torque, the limit and the
+            nearest waypoint.
     """
     check = check_robot_limits(robot, trajectory, torque_limit, tool_speed, tool_angular_speed)
     kinematic_total = trajectory.total_time
-    factor = 1.0
+    factor, allowed = 1.0, math.inf
     if torque_limit is not None:
         assert check.torque is not None
         gravity = gravity_torques(robot, trajectory.evaluate(check.times))
-        needed = torque_slow_down(check.torque, gravity, torque_limit)
-        if not np.all(np.isfinite(needed)):
-            k, joint = np.unravel_index(int(np.argmax(np.abs(gravity) / torque_limit)), gravity.shape)
-            waypoint = int(np.argmin(np.abs(waypoint_times - check.times[k])))
-            raise InfeasibleError(f"joint {robot.joint_names[joint]!r} needs {gravity[k, joint]:.4g} N m just to hold "
-                                  f"still at t = {check.times[k]:.4g} s (nearest waypoint {waypoint}), beyond its "
-                                  f"torque limit {torque_limit[joint]:.4g} N m: no timing helps; raise "
-                                  f"limits.torque_nm or move the waypoints", joint=int(joint), quantity="torque",
-                                  value=float(gravity[k, joint]), limit=float(torque_limit[joint]))
-        factor = max(factor, float(needed.max()))
+        lowest, highest = torque_slow_down(check.torque, gravity, torque_limit)
+        if not np.all(np.isfinite(lowest)):
+            raise _gravity_beyond(robot, check, gravity, torque_limit, np.isinf(lowest), waypoint_times)
+        factor, allowed = float(lowest.max()), float(highest.min())
     for speeds, limit in ((check.tool_speed, tool_speed), (check.tool_angular_speed, tool_angular_speed)):
         if speeds is not None and limit is not None:
             factor = max(factor, float(speeds.max()) / limit)
+    if factor > allowed:
+        assert check.torque is not None and torque_limit is not None
+        raise _no_common_slow_down(robot, check, gravity, torque_limit, highest, factor, allowed, waypoint_times)
     if factor > 1.0:
-        factor *= 1 + SLOW_DOWN_MARGIN
+        factor = min(factor * (1 + SLOW_DOWN_MARGIN), allowed)
         trajectory = slowed(trajectory, factor)  # the same samples, slowed: the scaling law holds at each
         check = check_robot_limits(robot, trajectory, torque_limit, tool_speed, tool_angular_speed,
                                    np.minimum(check.times * factor, trajectory.total_time))

@@ -5,7 +5,6 @@ Each stage takes and returns plain objects; this module only wires them.
 
 from __future__ import annotations
 
-import copy
 import os
 import time
 from collections.abc import Callable, Mapping
@@ -417,8 +416,8 @@ def as_task(task) -> Task:
     Raises:
         TaskError: anything else, or a task that does not validate.
     """
-    if isinstance(task, Task):  # a copy: the caller's later changes to its dicts stay out of the result
-        return check_task(copy.deepcopy(task))
+    if isinstance(task, Task):  # parsed anew: the caller's later changes to its dicts stay out of the result
+        return check_task(task)
     if isinstance(task, Mapping):  # numpy values and iterators as make_task takes them
         return parse_task(plain_values(task))
     if isinstance(task, (str, os.PathLike)):
@@ -493,7 +492,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
     if progress is not None and not isinstance(progress, TerminalProgress):
         raise InputError(f"progress must be a planner.progress.TerminalProgress or None, got {type(progress).__name__}")
     progress = progress or TerminalProgress("", quiet=True)
-    robot, ik, alternative = None, None, None
+    robot, ik, alternative, torque = None, None, None, None
     if task.robot is not None:
         progress.note(f"loading robot {task.robot.name or task.robot.urdf}")
         robot = load_robot(task.robot.urdf, task.robot.name, task.robot.tool_frame)
@@ -504,6 +503,8 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
                           f"{', '.join(robot.missing_meshes[:3])}{', ...' * (count > 3)}")
         limits = robot_limits(robot, task)
         robot = replace(robot, limits=limits)  # IK searches the very ranges the timing enforces
+        if task.robot_limits.torque is not None:  # checked now, not after IK and the timing runs
+            torque = torque_limits(robot, task.robot_limits.torque)
     timings["setup"] = time.perf_counter() - start
 
     start = time.perf_counter()
@@ -617,7 +618,6 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         start = time.perf_counter()
         given = task.robot_limits
         progress.note("checking torques and tool speed")
-        torque = None if given.torque is None else torque_limits(robot, given.torque)
         at_waypoints: np.ndarray | slice = path.waypoint_via if path is not None else slice(None)
 
         def meet(timed: PiecewisePolynomial) -> tuple[PiecewisePolynomial, RobotLimitOutcome]:

@@ -597,6 +597,11 @@ def task_document(task: Task) -> dict:
                                                            if task.path.mode == "linear" else {})
         elif task.joint_waypoints is not None:
             document["waypoints"] = {"joints_deg": _degrees(task.joint_waypoints)}
+            ik, default = task.ik, IKOptions()
+            if (ik.branch, ik.seed, ik.start is None) != (default.branch, default.seed, True):
+                document["ik"] = {"branch": ik.branch, "seed": ik.seed}  # as a file would give it: refused
+            if task.path != PathOptions():
+                document["path"] = {"mode": task.path.mode}
         else:
             document["waypoints"] = None
         limits: dict[str, Any] = {_LIMIT_KEY_OF[name]: _degrees(values) for name, values in task.limits.items()
@@ -628,10 +633,10 @@ def task_document(task: Task) -> dict:
 
 
 def check_task(task: Task) -> Task:
-    """``task`` itself, after checking that it is one a task file could give (``task_document``, then
-    ``parse_task``); a ``Task`` made by hand gets the same errors as a task file."""
-    parse_task(task_document(task), name=task.name, source=task.source)
-    return task
+    """``task`` as a task file would give it (``task_document``, then ``parse_task``): a ``Task`` made
+    by hand gets the same errors as a task file, and its values the same types (a list of via-points
+    where an array belongs crashed the planner further on)."""
+    return parse_task(task_document(task), name=task.name, source=task.source)
 
 
 def plain_values(value, path: str = "", depth: int = 0):

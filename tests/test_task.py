@@ -557,3 +557,23 @@ def test_a_urdf_path_to_a_folder_or_a_device_is_named_as_such(tmp_path):
         data["robot"]["urdf"] = str(urdf)
         with pytest.raises(TaskError, match=rf"^robot.urdf: .* is {what}, not a URDF file$"):
             parse_task(data)
+
+
+def test_a_hand_made_task_is_planned_as_a_task_file_would_give_it():
+    """``dataclasses.replace`` on a Task: a list where an array belongs is planned as the array a file
+    would give (it crashed with AttributeError), and ``path``/``ik`` on a joint-space task are refused
+    as in a file (they were ignored)."""
+    from dataclasses import replace
+
+    from planner.pipeline import plan
+    from planner.task import IKOptions, PathOptions, check_task
+
+    task = make_task(name="hand_made", joints_deg=[[0, 0], [10, 10]], limits={"velocity_deg_s": [10, 10]})
+    checked = check_task(replace(task, joint_waypoints=[[0.0, 0.0], [0.5, -0.5]]))
+    assert isinstance(checked.joint_waypoints, np.ndarray)
+    assert np.allclose(checked.joint_waypoints, [[0, 0], [0.5, -0.5]])
+    assert plan(replace(task, joint_waypoints=[[0.0, 0.0], [0.5, -0.5]])).feasible
+    for changed, key in ((replace(task, path=PathOptions(mode="linear")), "path"),
+                         (replace(task, ik=IKOptions(branch="continuous")), "ik")):
+        with pytest.raises(TaskError, match=f"^{key}: applies to cartesian waypoints only"):
+            plan(changed)
