@@ -76,6 +76,7 @@ def _reproduce(args) -> int:
 def _replay(args) -> int:
     from .errors import InputError
     from .export import write_trajectory_csv
+    from .limits import numbers_apart
     from .outputs import atomic_file, check_output_file
     from .recording import open_in_viewer, read_recording
     if args.time is not None and args.screenshot is None:
@@ -90,12 +91,15 @@ def _replay(args) -> int:
                 raise OutputError(f"--screenshot and --export-csv name the same file ({resolved}): give two")
             targets.append(resolved)
             check_output_file(target, force=args.force)
+    if args.screenshot is not None and Path(args.screenshot).suffix.lower() != ".png":
+        raise InputError(f"--screenshot {args.screenshot} writes a PNG image: give a file name ending in .png")
     recorded = read_recording(args.recording)
     target = args.export_csv
     total = recorded.trajectory.total_time
     at = total / 2 if args.time is None else args.time
     if args.screenshot is not None and not 0.0 <= at <= total:
-        raise InputError(f"--time {args.time:g} s is outside the recording's 0 to {total:.4f} s")
+        given, end = numbers_apart(at, total)  # as many digits as tell a time just past the end from it
+        raise InputError(f"--time {given} s is outside the recording's 0 to {end} s")
     if args.check:  # first: exports of a recording that fails its check are not written
         check = recorded.check()
         findings = (["VIOLATIONS: " + "; ".join(check.violations)] if check.violations else []) + (

@@ -71,14 +71,20 @@ def in_degrees(value: float, order: int) -> str:
     return f"{float(np.rad2deg(value)):.6g} {DEGREE_UNITS[order]}"
 
 
-def in_degrees_apart(value: float, bound: float, order: int) -> tuple[str, str]:
-    """``value`` and the ``bound`` it passes, as ``in_degrees`` but with as many significant digits
-    (6 to 17) as it takes for the two to read differently (-160.000001 deg against -160 deg)."""
-    degrees = float(np.rad2deg(value)), float(np.rad2deg(bound))
+def numbers_apart(value: float, bound: float) -> tuple[str, str]:
+    """``value`` and the ``bound`` it passes with as many significant digits (6 to 17) as it takes for
+    the two to read differently (27.0000000001 against 27)."""
     for digits in range(6, 18):
-        said = [f"{d:.{digits}g}" for d in degrees]
+        said = (f"{value:.{digits}g}", f"{bound:.{digits}g}")
         if said[0] != said[1]:
             break
+    return said
+
+
+def in_degrees_apart(value: float, bound: float, order: int) -> tuple[str, str]:
+    """``value`` and the ``bound`` it passes, as ``in_degrees`` but with as many significant digits
+    as it takes for the two to read differently (-160.000001 deg against -160 deg, ``numbers_apart``)."""
+    said = numbers_apart(float(np.rad2deg(value)), float(np.rad2deg(bound)))
     return f"{said[0]} {DEGREE_UNITS[order]}", f"{said[1]} {DEGREE_UNITS[order]}"
 
 

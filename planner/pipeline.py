@@ -271,7 +271,8 @@ def _follow_lines(robot: Robot, poses: list, sequences: list, hints: list, limit
     Returns the path, the timing, the IK report and the kept sequence's name.
 
     Raises:
-        IKError: the first failure of a rule's own sequence where none follows the lines.
+        IKError: where none follows the lines, the failure of the first sequence tried (in the order
+            above: one the lines reach is named before a rule's that they do not).
     """
     attempts: list[tuple[np.ndarray, Any, str]] = []
     jumping: list[tuple[np.ndarray, Any, str]] = []
@@ -295,8 +296,7 @@ def _follow_lines(robot: Robot, poses: list, sequences: list, hints: list, limit
         try:
             path, timing = follow(points)
         except IKError as exc:
-            if rule != "tracked":
-                failure = failure or exc
+            failure = failure or exc
             name = "tracked" if rule == "tracked" else f"{rule} rule's"
             progress.note(f"the {name} IK sequence cannot follow the straight lines ({exc})")
             continue

@@ -674,3 +674,26 @@ def test_a_sequence_the_lines_do_not_reach_is_replaced_by_the_one_they_do(capsys
         assert np.linalg.norm(ur5.data.oMf[ur5.model.getFrameId("tool0")].translation - waypoint.position) < 1e-9
     assert np.rad2deg(np.abs(np.diff(result.via_points, axis=0)).max()) < 100  # 218 deg jumped before
     assert [w["chosen_solution"] < w["solutions"] for w in result.summary()["ik"]["waypoints"]] == [True] * 6
+
+
+def test_the_failure_named_is_that_of_the_sequence_the_lines_reach(monkeypatch):
+    """Where no sequence follows the lines, the error is the first tried's: the tracked sequence (the
+    one the lines do reach) before the rules' own, which they do not (a tolerance too fine for a corner
+    was reported as a line leaving the reachable workspace on another segment: sweep 12)."""
+    from types import SimpleNamespace
+
+    import planner.pipeline as pipeline
+
+    rules = {"optimal": np.zeros((3, 6)), "continuous": np.ones((3, 6))}
+    tracked = np.full((3, 6), 2.0)
+    monkeypatch.setattr(pipeline, "track_straight_lines", lambda *args: tracked)
+
+    def follow(points):
+        name = "tracked" if points is tracked else next(rule for rule, own in rules.items() if own is points)
+        raise IKError(f"{name} fails")
+    notes: list[str] = []
+    with pytest.raises(IKError, match="^tracked fails$"):
+        pipeline._follow_lines(SimpleNamespace(model=SimpleNamespace(nv=6)), [None] * 3,
+                               [(None, points, rule) for rule, points in rules.items()], [None] * 3, None, 0,
+                               follow, SimpleNamespace(note=notes.append))
+    assert sum("cannot follow the straight lines" in note for note in notes) == 3

@@ -4,6 +4,7 @@ The rendering test needs a graphics adapter (a GPU, or Mesa's software Vulkan dr
 mesa-vulkan-drivers); where there is none it is skipped, saying why. The failure paths run everywhere.
 """
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -103,6 +104,7 @@ def test_a_failed_screenshot_leaves_neither_its_folders_nor_the_csv_asked_with_i
     (["--screenshot", "{tmp}/shot.png", "--time", "-0.5"], "outside the recording's 0 to"),
     (["--screenshot", "{tmp}/shot.png", "--time", "nan"], "finite number of seconds"),
     (["--time", "1"], "--time says when to take a --screenshot"),
+    (["--screenshot", "{tmp}/shot.jpg"], "writes a PNG image: give a file name ending in .png"),
     (["--screenshot", "{recording}"], "is the recording itself"),
     (["--screenshot", "{tmp}/same", "--export-csv", "{tmp}/./same"], "--screenshot and --export-csv name the same "
                                                                     "file"),
@@ -123,3 +125,15 @@ def test_bad_screenshot_arguments_fail_before_rendering(arguments, said, recordi
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and said in err
     assert leftovers(tmp_path) == [] and recording.read_bytes() == before
+
+
+def test_a_time_just_past_the_end_reads_past_it(recording, tmp_path, capsys):
+    """--time a hair past the end is refused with the digits that show it ("27 s is outside ... 0 to
+    27.0000 s" read as a contradiction)."""
+    from planner.recording import read_recording
+
+    total = read_recording(recording).trajectory.total_time
+    past = total * (1 + 1e-11)
+    assert main(["replay", str(recording), "--screenshot", str(tmp_path / "s.png"), "--time", repr(past)]) == 2
+    said = re.search(r"--time (\S+) s is outside the recording's 0 to (\S+) s", capsys.readouterr().err)
+    assert said and said[1] != said[2] and float(said[1]) > float(said[2]) == pytest.approx(total, rel=1e-9)
