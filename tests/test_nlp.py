@@ -315,8 +315,8 @@ def test_time_jerk_nlp_matches_an_independent_search_where_the_shape_matters(pap
 def test_starts_agree_only_within_the_agreement_gap():
     from planner.timing.result import AGREEMENT, OptimizationResult, StartReport
 
-    def result(*objectives, feasible=True):
-        starts = [StartReport(f"start {i}", value, feasible, 10, 1, "Solve_Succeeded", 0)
+    def result(*objectives, feasible=True, status="Solve_Succeeded"):
+        starts = [StartReport(f"start {i}", value, feasible, 10, 1, status, 0)
                   for i, value in enumerate(objectives)]
         return OptimizationResult("nlp", np.ones(1), 1.0, 1.0, np.zeros((3, 1)), True, 1, 0.0, [], "", None,
                                   starts=starts)
@@ -325,6 +325,8 @@ def test_starts_agree_only_within_the_agreement_gap():
     assert not result(10.0, 10.0 * (1 + 2 * AGREEMENT)).starts_agree
     assert not result(10.0, 10.2).starts_agree
     assert not result(10.0, 10.0, feasible=False).starts_agree
+    assert not result(10.0, 10.0, status="Maximum_Iterations_Exceeded").starts_agree  # stuck at one point
+    assert result(10.0, 10.0, status="Solved_To_Acceptable_Level").starts_agree
     assert result().starts_agree is None
 
 

@@ -87,7 +87,7 @@ from ..limits import FEASIBILITY_TOLERANCE
 from ..native_output import stderr_captured
 from .formulations import FORMULATIONS, Scales, SegmentBlock
 from .problem import TimingProblem
-from .result import AGREEMENT, SearchTracker, StartReport, remaining_time
+from .result import AGREEMENT, SOLVED, SearchTracker, StartReport, remaining_time
 from .robot_rows import (
     MODEL_TOLERANCE,
     SAMPLES_PER_SEGMENT,
@@ -159,8 +159,6 @@ CUT_CONCURRENT_SEGMENTS = 2
 #: on: IPOPT checks its own wall-time limit only between iterations, and one iteration of a degenerate
 #: problem took 10 s at n = 1000).
 OUT_OF_TIME = "stopped at the time limit"
-#: IPOPT statuses after which a round's solution is used.
-SOLVED = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 
 
 @dataclass(frozen=True)

@@ -20,6 +20,8 @@ Progress = Callable[[int, int, float], None]
 
 #: Starts whose repaired objectives are within this relative gap of the best agree.
 AGREEMENT = 1e-4
+#: IPOPT statuses after which a solution is used (a round's, in the NLP) and a start has converged.
+SOLVED = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 
 
 @dataclass(frozen=True)
@@ -92,10 +94,11 @@ class OptimizationResult(ReadOnlyArrays):
 
     @property
     def starts_agree(self) -> bool | None:
-        """Every refinement start ended feasible within ``AGREEMENT`` of the best (None without starts)."""
+        """Every refinement start converged (``SOLVED``) to a feasible result within ``AGREEMENT`` of the
+        best (None without starts): starts stopped at IPOPT's iteration cap at one point do not agree."""
         if not self.starts:
             return None
-        values = np.array([s.objective if s.feasible else np.inf for s in self.starts])
+        values = np.array([s.objective if s.feasible and s.status in SOLVED else np.inf for s in self.starts])
         return bool(np.isfinite(values).all() and np.all(values <= values.min() * (1 + AGREEMENT)))
 
     @property
