@@ -284,15 +284,15 @@ def _where(times: np.ndarray, sample, waypoint_times: np.ndarray) -> str:
 def _gravity_beyond(robot: Robot, check: RobotLimitCheck, gravity: np.ndarray, limit: np.ndarray,
                     hopeless: np.ndarray, waypoint_times: np.ndarray) -> InfeasibleError:
     """The error where some (K, J) samples (``hopeless``) meet a torque limit at no slow-down: gravity alone
-    exceeds it there, and either the joint rests (no timing helps) or its motion holds gravity back only
-    at a faster pace than the plan's. A resting sample is named first, then the largest excess."""
+    exceeds it there, and either the joint rests (no timing helps) or its motion does not hold gravity
+    back at the plan's pace or a slower one. A resting sample is named first, then the largest excess."""
     assert check.torque is not None
     resting = hopeless & (np.abs(check.torque - gravity) <= 1e-9 * np.maximum(np.abs(gravity), 1.0))
     chosen = resting if resting.any() else hopeless
     k, joint = np.unravel_index(int(np.argmax(np.where(chosen, np.abs(gravity) / limit, -np.inf))), gravity.shape)
     reason = ("it rests there: no timing helps" if resting.any() else
-              f"the motion there ({check.torque[k, joint]:.4g} N m in all) holds it back only at a faster pace than "
-              f"the kinematic optimum's: no slow-down helps")
+              f"the motion's own torque there ({check.torque[k, joint]:.4g} N m in all) does not hold it within the "
+              f"limit at this pace or any slower one: no slow-down helps")
     return InfeasibleError(f"joint {robot.joint_names[joint]!r} needs {gravity[k, joint]:.4g} N m just to hold "
                            f"still at {_where(check.times, k, waypoint_times)}, beyond its torque limit "
                            f"{limit[joint]:.4g} N m; {reason}; raise limits.torque_nm or move the waypoints",
@@ -308,12 +308,12 @@ def _no_common_slow_down(robot: Robot, check: RobotLimitCheck, gravity: np.ndarr
     holds gravity back there, less the slower it runs)."""
     assert check.torque is not None
     k, joint = np.unravel_index(int(np.argmin(highest)), highest.shape)
-    return InfeasibleError(f"no uniform slow-down meets every robot limit: they need {needed:.6g} times slower, but "
-                           f"joint {robot.joint_names[joint]!r} needs {gravity[k, joint]:.4g} N m just to hold still "
-                           f"at {_where(check.times, k, waypoint_times)}, beyond its torque limit {limit[joint]:.4g} "
-                           f"N m, and its motion holds that back only up to {allowed:.6g} times slower; raise "
-                           f"limits.torque_nm or move the waypoints", joint=int(joint), quantity="torque",
-                           value=float(gravity[k, joint]), limit=float(limit[joint]))
+    return InfeasibleError(f"no uniform slow-down meets every robot limit: meeting them needs {needed:.6g} times "
+                           f"slower, but joint {robot.joint_names[joint]!r} needs {gravity[k, joint]:.4g} N m just to "
+                           f"hold still at {_where(check.times, k, waypoint_times)}, beyond its torque limit "
+                           f"{limit[joint]:.4g} N m, and its motion holds that back only up to {allowed:.6g} times "
+                           f"slower; raise limits.torque_nm or move the waypoints", joint=int(joint),
+                           quantity="torque", value=float(gravity[k, joint]), limit=float(limit[joint]))
 
 
 def meet_robot_limits(robot: Robot, trajectory: PiecewisePolynomial, torque_limit: np.ndarray | None,

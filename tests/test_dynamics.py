@@ -435,16 +435,21 @@ def pin_quaternion(pose) -> list[float]:
     return pin.Quaternion(pose.rotation).coeffs().tolist()  # x, y, z, w
 
 
-def test_a_plan_whose_motion_holds_gravity_back_is_kept(puma):
-    """joint3's gravity torque alone exceeds its 8.35 N m limit on the way, where the motion's own torque
-    keeps it within: the kinematic optimum meets every limit as it is (it was refused: "no timing
-    helps"). Checked densely with Pinocchio's RNEA, 40001 samples."""
-    task = {"version": 1, "name": "held_back", "robot": {"urdf": str(PUMA), "tool_frame": "tool"},
+def held_back_task(**limits) -> dict:
+    """A PUMA task where joint3's gravity torque alone exceeds its 8.35 N m limit on the way."""
+    return {"version": 1, "name": "held_back", "robot": {"urdf": str(PUMA), "tool_frame": "tool"},
             "waypoints": {"joints_deg": [[10, 15, 45, 5, 10, 6], [60, 25, 150, 20, 30, 40],
                                          [75, 30, 200, 60, -40, 80]]},
             "limits": {"torque_nm": [97.6, 38.5, 8.35, 24.2, 20.1, 21.3],
                        "acceleration_deg_s2": [600, 600, 750, 700, 900, 800],
-                       "jerk_deg_s3": [6000, 6600, 8500, 7000, 7500, 7000]}}
+                       "jerk_deg_s3": [6000, 6600, 8500, 7000, 7500, 7000], **limits}}
+
+
+def test_a_plan_whose_motion_holds_gravity_back_is_kept(puma):
+    """joint3's gravity torque alone exceeds its 8.35 N m limit on the way, where the motion's own torque
+    keeps it within: the kinematic optimum meets every limit as it is (it was refused: "no timing
+    helps"). Checked densely with Pinocchio's RNEA, 40001 samples."""
+    task = held_back_task()
     result = plan(task)
     assert result.robot_limits.slow_down == 1
     times = np.linspace(0.0, result.trajectory.total_time, 40001)
@@ -453,3 +458,14 @@ def test_a_plan_whose_motion_holds_gravity_back_is_kept(puma):
                        zip(q, result.trajectory.evaluate(times, 1), result.trajectory.evaluate(times, 2))])
     assert np.all(np.abs(torque) <= np.array(task["limits"]["torque_nm"]) * (1 + 1e-6))
     assert np.abs(gravity_torques(puma, q)[:, 2]).max() > 8.35  # gravity alone would exceed it
+
+
+def test_a_slow_down_beyond_what_holds_gravity_back_is_refused_naming_both():
+    """The same task with a tool speed of 0.05 m/s: that needs about 20 times slower, where joint3's
+    motion holds its gravity within the limit only up to about 1.04 times slower."""
+    with pytest.raises(InfeasibleError, match=r"no uniform slow-down meets every robot limit: meeting them needs "
+                                              r"[\d.]+ times slower, but joint 'joint3' needs -8\.\d+ N m just to "
+                                              r"hold still at t = .* beyond its torque limit 8\.35 N m, and its motion "
+                                              r"holds that back only up to 1\.0\d+ times slower") as caught:
+        plan(held_back_task(tool_speed_m_s=0.05))
+    assert (caught.value.joint, caught.value.quantity, caught.value.limit) == (2, "torque", 8.35)
