@@ -434,8 +434,35 @@ class Hermite7Formulation(SplineFormulation):
         coefficients[0] = _columns(ca, self.via_points[:-1])  # b_0: each segment starts at its via-point
         bounds = np.concatenate([self._scaled_bounds(order, inner) for order in range(1, 4)])
         bounds[:inner * joints] = np.where((self.resting_sides()[1:-1] != 0).T.ravel(), 0.0, bounds[:inner * joints])
-        return SymbolicSpline(states, -bounds, bounds, ca.MX(0, 1),
+        return SymbolicSpline(states, -bounds, bounds, ca.MX(0, 1), self._implied_rows(ca, knots, h),
                               blocks=[SegmentBlock(np.arange(n - 1), coefficients, (0, 1, 2, 3))])
+
+    def _implied_rows(self, ca, knots: list, h) -> list:
+        """Bounds the limits imply on a via-point's acceleration and jerk where neither is limited itself.
+
+        By Markov's inequality a polynomial p of degree D on an interval of length h has
+        max |p'| <= 2 D^2 max |p| / h. On either segment beside a via-point, the velocity (degree 6)
+        bounded by V bounds the acceleration there, |a| <= 72 V / h, and the acceleration (degree 5),
+        bounded by A or by 72 V / h, the jerk, |j| <= 50 A / h or 3600 V / h^2. Every feasible
+        trajectory meets them, so they cut nothing off; without them a knot state that no limit bounds
+        ran off (IPOPT's steps of norm 1e8) between the cuts of one round."""
+        limits = self.limits
+        rows = []
+        before, after = h[:-1], h[1:]  # the segments on either side of each interior via-point
+        for j in range(self.joint_count):
+            velocity, acceleration, jerk = (float(limits.magnitudes[d, j]) for d in range(3))
+            pairs = []
+            if not np.isfinite(acceleration) and np.isfinite(velocity):
+                pairs.append((knots[1][1:-1, j], 72 * velocity, 1))
+            if not np.isfinite(jerk):
+                if np.isfinite(acceleration):
+                    pairs.append((knots[2][1:-1, j], 50 * acceleration, 1))
+                elif np.isfinite(velocity):
+                    pairs.append((knots[2][1:-1, j], 3600 * velocity, 2))
+            for state, bound, power in pairs:
+                for side in (before, after):
+                    rows.append((state * side ** power / bound, -1.0, 1.0))
+        return rows
 
     def knot_resting_sides(self) -> np.ndarray:
         """Every knot is a via-point."""
