@@ -666,3 +666,21 @@ def test_hermite7_with_velocity_limits_only_converges():
     trajectory = problem.trajectory(result.durations, result.knot_states)
     times = np.linspace(0.0, trajectory.total_time, 400001)
     assert np.all(np.abs(trajectory.evaluate(times, 1)).max(axis=0) <= velocity * (1 + 1e-9))
+
+
+@pytest.mark.parametrize("kind, values, before", [("jerk", [60, 66, 85, 70, 75, 70], 27.083),
+                                                  ("acceleration", [60, 60, 75, 70, 90, 80], 20.396)])
+def test_hermite7_from_rest_to_rest_bounds_what_no_limit_does(kind, values, before):
+    """hermite7 under a jerk or an acceleration limit only: the via-points' velocity (and acceleration)
+    had no bound, and the NLP ended at ``before`` s (Cuckoo Search's nests: 23.62 s and 17.37 s). A
+    trajectory from rest to rest within the reference's time T0 has |a| <= J T0 / 2, |v| <= J T0^2 / 8
+    or A T0 / 2; bounded so, every start converges, far below, within the limit (dense check)."""
+    via = np.deg2rad(paper.VIA_POINTS_DEG)
+    limit = np.deg2rad(values)
+    problem = TimingProblem(via, "hermite7", JointLimits.create(6, **{kind: limit}))
+    result = optimize(problem, "nlp")
+    assert result.feasible and result.starts_agree and result.total_time < 0.8 * before
+    trajectory = problem.trajectory(result.durations, result.knot_states)
+    times = np.linspace(0.0, trajectory.total_time, 400001)
+    order = {"acceleration": 2, "jerk": 3}[kind]
+    assert np.all(np.abs(trajectory.evaluate(times, order)).max(axis=0) <= limit * (1 + 1e-9))

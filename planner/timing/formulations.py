@@ -433,9 +433,21 @@ class Hermite7Formulation(SplineFormulation):
                         for i in range(8)]
         coefficients[0] = _columns(ca, self.via_points[:-1])  # b_0: each segment starts at its via-point
         bounds = np.concatenate([self._scaled_bounds(order, inner) for order in range(1, 4)])
+        bounds = np.minimum(bounds, self._from_rest(inner))
         bounds[:inner * joints] = np.where((self.resting_sides()[1:-1] != 0).T.ravel(), 0.0, bounds[:inner * joints])
         return SymbolicSpline(states, -bounds, bounds, ca.MX(0, 1), self._implied_rows(ca, knots, h),
                               blocks=[SegmentBlock(np.arange(n - 1), coefficients, (0, 1, 2, 3))])
+
+    def _from_rest(self, count: int) -> np.ndarray:
+        """(3 count J,) bounds of the scaled v, a, j states that a trajectory from rest to rest within the
+        reference's total time T0 meets: |a| <= J T0 / 2 and |v| <= J T0^2 / 8 under a jerk limit J,
+        |v| <= A T0 / 2 under an acceleration limit A (each half of the motion starts or ends at rest).
+        Any timing better than the reference is that short, so they cut nothing off."""
+        total = float(self.scales.segment_times.sum())
+        velocity, acceleration, jerk = self.limits.magnitudes
+        implied = np.vstack((np.minimum(acceleration * total / 2, jerk * total ** 2 / 8), jerk * total / 2,
+                             np.full(self.joint_count, np.inf)))
+        return np.concatenate([np.repeat(implied[d] / self.scales.derivatives[d], count) for d in range(3)])
 
     def _implied_rows(self, ca, knots: list, h) -> list:
         """Bounds the limits imply on a via-point's acceleration and jerk where neither is limited itself.
