@@ -684,3 +684,16 @@ def test_hermite7_from_rest_to_rest_bounds_what_no_limit_does(kind, values, befo
     times = np.linspace(0.0, trajectory.total_time, 400001)
     order = {"acceleration": 2, "jerk": 3}[kind]
     assert np.all(np.abs(trajectory.evaluate(times, order)).max(axis=0) <= limit * (1 + 1e-9))
+
+
+def test_the_from_rest_bounds_take_only_a_total_no_better_timing_exceeds(paper_via):
+    """hermite7's from-rest bounds use the reference's total time only where the optimum cannot take
+    longer: a feasible reference under the time objective. With jerk energy in the objective, or a
+    reference that breaks a limit, there is no such total (inf), and no bound."""
+    limits = JointLimits.create(6, jerk=np.deg2rad([60, 66, 85, 70, 75, 70]))
+    problem = TimingProblem(paper_via, "hermite7", limits)
+    feasible = problem.evaluate(np.ones((1, problem.segment_count))).durations[0]
+    assert TimingNLP(problem, feasible).formulation.longest_total == pytest.approx(feasible.sum())
+    assert TimingNLP(problem, feasible / 2).formulation.longest_total == np.inf
+    weighted = TimingProblem(paper_via, "hermite7", limits, objective="time-jerk", weights=(1.0, 1.0))
+    assert TimingNLP(weighted, feasible).formulation.longest_total == np.inf

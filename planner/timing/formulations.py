@@ -20,6 +20,7 @@ CasADi is imported lazily: importing the planner does not load it.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from math import factorial
 from typing import Any
@@ -132,11 +133,16 @@ class SplineFormulation:
 
     limits_by_cuts = False
 
-    def __init__(self, family: SplineFamily, via_points: np.ndarray, limits: JointLimits, scales: Scales):
+    def __init__(self, family: SplineFamily, via_points: np.ndarray, limits: JointLimits, scales: Scales,
+                 longest_total: float = math.inf):
+        """``longest_total``: a total time [s] the optimum does not exceed (that of a feasible timing, where
+        the objective is time alone; inf where none is known: with jerk energy in the objective, a better
+        timing may take longer)."""
         self.family = family
         self.via_points = via_points
         self.limits = limits
         self.scales = scales
+        self.longest_total = longest_total
 
     @property
     def joint_count(self) -> int:
@@ -439,11 +445,11 @@ class Hermite7Formulation(SplineFormulation):
                               blocks=[SegmentBlock(np.arange(n - 1), coefficients, (0, 1, 2, 3))])
 
     def _from_rest(self, count: int) -> np.ndarray:
-        """(3 count J,) bounds of the scaled v, a, j states that a trajectory from rest to rest within the
-        reference's total time T0 meets: |a| <= J T0 / 2 and |v| <= J T0^2 / 8 under a jerk limit J,
+        """(3 count J,) bounds of the scaled v, a, j states that a trajectory from rest to rest within a
+        total time T0 (``longest_total``) meets: |a| <= J T0 / 2 and |v| <= J T0^2 / 8 under a jerk limit J,
         |v| <= A T0 / 2 under an acceleration limit A (each half of the motion starts or ends at rest).
-        Any timing better than the reference is that short, so they cut nothing off."""
-        total = float(self.scales.segment_times.sum())
+        The optimum is that short, so they cut nothing off (none where T0 is not known)."""
+        total = self.longest_total
         velocity, acceleration, jerk = self.limits.magnitudes
         implied = np.vstack((np.minimum(acceleration * total / 2, jerk * total ** 2 / 8), jerk * total / 2,
                              np.full(self.joint_count, np.inf)))

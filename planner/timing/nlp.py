@@ -263,7 +263,10 @@ class TimingNLP:
         reference = np.asarray(reference, dtype=float)
         coefficients = family.batch_coefficients(problem.via_points, reference[None])
         self.scales = Scales.of(problem.limits, reference, max_abs(coefficients, reference[None])[0])
-        self.formulation = FORMULATIONS[family.name](family, problem.via_points, problem.limits, self.scales)
+        # The optimum takes no longer than a feasible reference (where time alone is the objective).
+        feasible = not problem.uses_jerk_energy and bool(problem.evaluate_durations(reference[None]).feasible[0])
+        longest = float(reference.sum()) if feasible else np.inf
+        self.formulation = FORMULATIONS[family.name](family, problem.via_points, problem.limits, self.scales, longest)
         self._programs: dict[tuple[Certificate, ...], _Program] = {}
         self._blocks: list[SegmentBlock] | None = None
         #: The caller ends solves at the time limit itself (``_solve_all``'s processes): kept programs are
