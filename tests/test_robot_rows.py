@@ -118,3 +118,56 @@ def test_the_samples_are_the_spline_at_each_segments_points():
             assert (q[p, j], qd[p, j], qdd[p, j]) == pytest.approx(
                 (polynomial(tau), polynomial.deriv()(tau), polynomial.deriv(2)(tau)), rel=1e-12, abs=1e-12)
     assert sorted(set(s)) == list(np.arange(8) / 8)
+
+
+def test_the_nlp_rows_derivatives_are_the_models_by_finite_differences(ur5):
+    """The Jacobian CasADi derives of the mapped rows in q, q' and q'' (the model's numbers are
+    parameters it does not differentiate in) against central differences of the numeric model."""
+    rng = np.random.default_rng(11)
+    points = 3
+    q, qd, qdd = rng.normal(size=(3, points, 6))
+    constraints = RobotConstraints(ur5, LIMITS, 0.3, 1.5)
+    frozen = freeze(constraints, q, qd, qdd)
+    numbers = parameters(frozen)
+    symbols = [ca.MX.sym(name, 6, points) for name in ("q", "qd", "qdd")]
+    rows = ca.vec(point_rows(ca, constraints, 6).map(points)(*symbols, numbers))
+    inputs = ca.vertcat(*[ca.vec(x) for x in symbols])
+    jacobian = ca.Function("jacobian", [inputs], [ca.jacobian(rows, inputs)])
+    at = np.concatenate([x.T.ravel() for x in (q + 0.1, 1.3 * qd, -0.7 * qdd)])  # not where it was frozen
+
+    def numeric(x):
+        states = [x[k * 6 * points:(k + 1) * 6 * points].reshape(points, 6) for k in range(3)]
+        torque, velocity = modelled(frozen, *states)
+        speeds = [np.sum(velocity[:, :3] ** 2, axis=1) / 0.3 ** 2, np.sum(velocity[:, 3:] ** 2, axis=1) / 1.5 ** 2]
+        return np.vstack([(torque / LIMITS).T, *[s[None] for s in speeds]]).T.ravel()  # point by point
+
+    step = 1e-6
+    differences = np.column_stack([(numeric(at + step * e) - numeric(at - step * e)) / (2 * step)
+                                   for e in np.eye(len(at))])
+    np.testing.assert_allclose(np.array(jacobian(at)), differences, rtol=1e-6, atol=1e-6)
+
+
+@pytest.mark.parametrize("family", ["cubic", "hybrid", "quintic", "hermite7"])
+def test_the_nlp_samples_are_the_splines_at_the_model_points(family):
+    """The NLP's symbolic q, q', q'' at the samples (``_sampled_states``), column by column, equal
+    ``spline_states`` at ``sample_points`` (the order the frozen model's numbers come in), evaluated
+    at a spline's durations and knot states."""
+    from planner.limits import JointLimits
+    from planner.timing.nlp import TimingNLP, _sampled_states
+    from planner.timing.problem import TimingProblem
+
+    rng = np.random.default_rng(2)
+    via = np.cumsum(rng.normal(size=(5, 2)), axis=0)
+    limits = JointLimits.create(2, velocity=np.ones(2), acceleration=np.ones(2), jerk=np.ones(2))
+    problem = TimingProblem(via, family, limits)
+    h = rng.uniform(0.5, 2.0, problem.segment_count)
+    coefficients = problem.coefficients(h[None])[0]
+    formulation = TimingNLP(problem, h).formulation
+    symbolic = ca.MX.sym("h", problem.segment_count)
+    spline = formulation.build(symbolic)
+    for block in spline.blocks:
+        evaluate = ca.Function("samples", [symbolic, spline.states], list(_sampled_states(ca, block, symbolic)))
+        found = [np.array(x) for x in evaluate(h, formulation.state_values(coefficients, h))]
+        expected = spline_states(coefficients, h, *sample_points(block.segments))
+        for got, want in zip(found, expected):
+            np.testing.assert_allclose(got, want.T, rtol=1e-9, atol=1e-9)

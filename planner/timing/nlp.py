@@ -600,7 +600,7 @@ class _Program:
             numbers = ca.reshape(model, function.size1_in(3), sum(counts))
             offset = 0
             for block, count in zip(spline.blocks, counts):
-                states = [state.T for state in _sampled_states(ca, block, h)]
+                states = _sampled_states(ca, block, h)
                 rows.append(ca.vec(function.map(count)(*states, numbers[:, offset:offset + count])))
                 lower.append(np.tile(low, count))
                 upper.append(np.tile(high, count))
@@ -664,18 +664,27 @@ def _certified_quantities(ca, certificates: list[Certificate], blocks: list[Segm
 
 
 def _sampled_states(ca, block: SegmentBlock, h) -> tuple:
-    """(K * SAMPLES_PER_SEGMENT, J) q, q', q'' of ``block``'s segments at s = m / SAMPLES_PER_SEGMENT,
-    sample-major (``robot_rows.sample_points``): q^(d)(s h) = h^-d P^(d)(s)."""
+    """(J, K * SAMPLES_PER_SEGMENT) q, q', q'' of ``block``'s segments at s = m / SAMPLES_PER_SEGMENT,
+    a column per sample, segment-major (``robot_rows.sample_points``): q^(d)(s h) = h^-d P^(d)(s).
+
+    One product per order, the coefficients (K J, D + 1) times the basis values (D + 1, M), and
+    reshapes: the NLP's derivatives go through a few large nodes rather than M (D + 1) small ones."""
+    segments = len(block.segments)
     joints = block.coefficients[0].shape[1]
-    duration = ca.repmat(_pick(ca, h, block.segments), 1, joints)
-    states: list[list] = [[], [], []]
-    for m in range(SAMPLES_PER_SEGMENT):
-        s = m / SAMPLES_PER_SEGMENT
-        for order in range(3):
-            value = sum(block.coefficients[i] * (factorial(i) / factorial(i - order) * s ** (i - order))
-                        for i in range(order, block.degree + 1))
-            states[order].append(value / duration ** order if order else value)
-    return tuple(ca.vertcat(*values) for values in states)
+    stacked = ca.horzcat(*[ca.vec(c) for c in block.coefficients])  # (K J, D + 1), row k + K j
+    inverse = ca.repmat(1.0 / _pick(ca, h, block.segments), joints, 1)  # (K J, 1)
+    s = np.arange(SAMPLES_PER_SEGMENT) / SAMPLES_PER_SEGMENT
+    states = []
+    for order in range(3):
+        basis = np.array([[factorial(i) / factorial(i - order) * s_m ** (i - order) if i >= order else 0.0
+                           for s_m in s] for i in range(block.degree + 1)])  # (D + 1, M)
+        values = ca.mtimes(stacked, ca.DM(basis))  # (K J, M): entry [k + K j, m]
+        if order:
+            values = values * ca.repmat(inverse ** order, 1, SAMPLES_PER_SEGMENT)
+        # [k + K j, m] -> (J, M K) with column m + M k
+        states.append(ca.reshape(ca.reshape(values, segments, joints * SAMPLES_PER_SEGMENT).T,
+                                 joints, SAMPLES_PER_SEGMENT * segments))
+    return tuple(states)
 
 
 def _pick(ca, column, indices):

@@ -124,9 +124,9 @@ class FrozenModel:
 
 
 def sample_points(segments: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(segment, s) of every sample of ``segments`` (K,), sample-major: (K * SAMPLES_PER_SEGMENT,) each."""
+    """(segment, s) of every sample of ``segments`` (K,), segment-major: (K * SAMPLES_PER_SEGMENT,) each."""
     s = np.arange(SAMPLES_PER_SEGMENT) / SAMPLES_PER_SEGMENT
-    return np.tile(segments, SAMPLES_PER_SEGMENT), np.repeat(s, len(segments))
+    return np.repeat(segments, SAMPLES_PER_SEGMENT), np.tile(s, len(segments))
 
 
 def spline_states(coefficients: np.ndarray, durations: np.ndarray, segments: np.ndarray,
@@ -228,7 +228,14 @@ def point_rows(ca, constraints: RobotConstraints, joints: int):
     """A CasADi function (q, q', q'', model) -> rows of one sample point, each to lie in ``row_bounds``:
     tau_j / L_j, then |v|^2 / V^2 and |w|^2 / W^2 for the speeds limited (module docstring; ``model``
     is a column of ``parameters``). Built once in scalar form, it is mapped over the points
-    (``Function.map``)."""
+    (``Function.map``).
+
+    ``model`` is declared not differentiable: the NLP differentiates in q, q', q'' only, and CasADi
+    otherwise builds and evaluates every derivative of the map in the model's numbers as well (294 per
+    point with torque limits on six joints). On the PUMA paper task with torque binding
+    (``scripts/bench_robot_limits.py``): a program's build 0.48 -> 0.11 s, the Hessian's and
+    Jacobian's evaluations over its 67 IPOPT iterations 1.96 -> 0.59 s, the robot-limit stage
+    3.3 -> 1.2 s."""
     q, qd, qdd = (ca.SX.sym(name, joints) for name in ("q", "qd", "qdd"))
     sizes = []
     if constraints.torque is not None:
@@ -252,7 +259,8 @@ def point_rows(ca, constraints: RobotConstraints, joints: int):
         velocity = ca.reshape(jacobian, joints, twist).T @ qd + ca.reshape(position, joints, twist).T @ q + offset
         for part, limit in constraints.speed_parts:
             found.append(ca.sumsqr(velocity[part]) / limit ** 2)
-    return ca.Function("robot_rows", [q, qd, qdd, model], [ca.vertcat(*found)])
+    return ca.Function("robot_rows", [q, qd, qdd, model], [ca.vertcat(*found)],
+                       {"is_diff_in": [True, True, True, False]})
 
 
 def row_bounds(constraints: RobotConstraints, joints: int) -> tuple[np.ndarray, np.ndarray]:
