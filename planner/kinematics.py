@@ -20,7 +20,7 @@ from math import comb
 import numpy as np
 
 from .errors import InputError
-from .limits import FEASIBILITY_TOLERANCE, LIMITED, JointLimits, in_degrees_apart, time_scale_factor
+from .limits import FEASIBILITY_TOLERANCE, LIMITED, JointLimits, in_degrees_apart, ratio_exceeded, time_scale_factor
 from .read_only import ReadOnlyArrays, freeze_arrays
 from .splines import PiecewisePolynomial, derivative_coefficients, polyval, powers
 
@@ -412,7 +412,7 @@ class KinematicFigures(ReadOnlyArrays):
         ratios = self.ratios(limits)
         for quantity in LIMITED:
             d = quantity.order - 1
-            for j in np.flatnonzero(~(ratios[d] <= 1.0 + FEASIBILITY_TOLERANCE)):  # a nan figure fails too
+            for j in np.flatnonzero(ratio_exceeded(ratios[d])):
                 found.append(Violation(limits.names[j], int(j), quantity.name, quantity.order,
                                        float(self.max_abs[d, j]), float(limits.magnitudes[d, j])))
         for side, values, bounds, outside in (("lower", self.position_min, limits.lower, -1.0),

@@ -66,6 +66,14 @@ FEASIBILITY_TOLERANCE = 1e-9
 MAX_JOINTS = 10_000
 
 
+def ratio_exceeded(ratios) -> np.ndarray:
+    """Where a constraint ratio (|value| / limit, any shape) breaks its limit: above 1 +
+    ``FEASIBILITY_TOLERANCE``, or not a number. The one test of a magnitude limit: the exact check
+    (``KinematicFigures.violations``), the optimizers' feasibility and their repair all use it (the
+    repair's time-scale factor within the tolerance left a jerk ratio up to 1 + 3e-9)."""
+    return ~(np.asarray(ratios, dtype=float) <= 1.0 + FEASIBILITY_TOLERANCE)
+
+
 def in_degrees(value: float, order: int) -> str:
     """A value [rad-based SI] of derivative ``order`` (0 = position) as the user reads it: "12.5 deg/s"."""
     return f"{float(np.rad2deg(value)):.6g} {DEGREE_UNITS[order]}"

@@ -22,7 +22,15 @@ from .errors import IKError, InfeasibleError, InputError, MissingLimitError, Out
 from .export import coefficients_document, json_ready, write_json, write_trajectory_csv
 from .ik import IKSolution, described, pose_from_position_quaternion, solve_waypoints
 from .kinematics import KinematicFigures, Violation, kinematic_figures
-from .limits import FEASIBILITY_TOLERANCE, LIMITED, QUANTITIES, JointLimits, in_degrees, in_degrees_apart
+from .limits import (
+    FEASIBILITY_TOLERANCE,
+    LIMITED,
+    QUANTITIES,
+    JointLimits,
+    in_degrees,
+    in_degrees_apart,
+    ratio_exceeded,
+)
 from .outputs import absolute_path, output_folder
 from .progress import TerminalProgress
 from .read_only import read_only
@@ -564,7 +572,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
                     and result.durations.max() <= problem.bounds[1] * (1 + 1e-12)):
                 raise _outside_bounds(problem, result)
             reasons = ([f"largest constraint ratio {result.max_ratio:.12g} (limit 1)"]
-                       if result.max_ratio > 1 + FEASIBILITY_TOLERANCE or worst is None else []) + \
+                       if ratio_exceeded(result.max_ratio) or worst is None else []) + \
                 ([str(worst)] if worst else [])  # a position alone leaves the ratio at 1: no word of it then
             raise InfeasibleError(f"no feasible timing found by {result.algorithm}; in its best timing, "
                                   f"{'; '.join(reasons)}"

@@ -131,6 +131,10 @@ class Robot:
         if not isinstance(path, (str, os.PathLike)):
             raise RobotFileError(f"a URDF is given by its path (text or path-like), not {type(path).__name__}",
                                  path=None)
+        folders = [package_dirs] if isinstance(package_dirs, (str, os.PathLike)) else _iterable(package_dirs)
+        if not all(isinstance(d, (str, os.PathLike)) for d in folders):
+            raise InputError(f"package_dirs must be a folder or a list of folders (text or path-like), got "
+                             f"{shown(package_dirs)}")
         path = Path(path)
         if not path.is_file():  # a device such as /dev/zero would be read without end
             raise RobotFileError(f"cannot load URDF {path}: not an existing regular file", path=path)
@@ -154,7 +158,7 @@ class Robot:
         if problem:
             raise RobotFileError(f"cannot load URDF {path}: {problem}", path=path)
         extra = _read_limit_file(path.with_suffix(".limits.yaml"), model)
-        return cls._build(model.name or path.stem, model, tool_frame, path, tuple(package_dirs), extra)
+        return cls._build(model.name or path.stem, model, tool_frame, path, tuple(folders), extra)
 
     @classmethod
     def from_example_robot_data(cls, name: str, tool_frame: str | None = None) -> "Robot":
@@ -280,6 +284,14 @@ def _frame_id(model: pin.Model, name: str) -> int:
     found = [i for i, frame in enumerate(model.frames) if frame.name == name]
     bodies = [i for i in found if model.frames[i].type == pin.FrameType.BODY]
     return (bodies or found)[0]
+
+
+def _iterable(value) -> list:
+    """``value``'s items, or ``[None]`` (no folder) where it has none to give."""
+    try:
+        return list(value)
+    except TypeError:
+        return [None]
 
 
 def package_roots(package_dirs) -> list[Path]:

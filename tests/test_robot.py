@@ -438,3 +438,14 @@ def test_joints_off_the_chain_are_held_inside_their_ranges():
         assert full.lowerPositionLimit[i] <= value <= full.upperPositionLimit[i]
         assert value == np.clip(0.0, full.lowerPositionLimit[i], full.upperPositionLimit[i])
     assert robot.locked_positions["joint_12.0"] == pytest.approx(0.263)
+
+
+@pytest.mark.parametrize("package_dirs", [None, 3, [3], [None]])
+def test_package_dirs_that_are_no_folders_are_named(package_dirs):
+    with pytest.raises(InputError, match="package_dirs must be a folder or a list of folders"):
+        Robot.from_urdf(ROOT / "robots" / "puma560.urdf", None, package_dirs=package_dirs)
+
+
+def test_one_package_folder_may_be_given_alone():
+    robot = Robot.from_urdf(ROOT / "robots" / "puma560.urdf", None, package_dirs=str(ROOT / "robots"))
+    assert robot.package_dirs == (str(ROOT / "robots"),)

@@ -609,3 +609,77 @@ def test_timing_does_not_depend_on_where_the_joints_sit(family, offset_deg):
         assert result.feasible and not kinematic_figures(trajectory).violations(limits)
         totals.append(result.total_time)
     assert totals[1] == pytest.approx(totals[0], rel=1e-6)
+
+
+@pytest.mark.parametrize("family", ["cubic", "hybrid"])
+@pytest.mark.parametrize("algorithm", ["pso", "de"])
+def test_a_bounded_result_called_feasible_passes_the_exact_check(family, algorithm):
+    """Within duration bounds the repair scales until every ratio holds by the exact check's own test
+    (``ratio_exceeded``): PSO's best here sat at an acceleration ratio of 1 + 1.9e-9, which a
+    time-scale factor within 1 + 1e-9 let through and the final check refused."""
+    via = np.radians([[0.0, 0.0], [30.0, -10.0]])
+    limits = JointLimits.create(2, velocity=np.radians([50, 50]), acceleration=np.radians([100, 100]),
+                                jerk=np.radians([500, 500]))
+    problem = TimingProblem(via, family, limits, bounds=(0.5, 0.6))
+    for seed in range(3):
+        result = optimize(problem, algorithm, seed=seed)
+        assert result.feasible
+        assert kinematic_figures(problem.trajectory(result.durations)).violations(limits) == []
+        assert result.total_time == pytest.approx(1.6209372704, rel=1e-9)  # the default planner's optimum
+
+
+@given(st.lists(st.floats(0.05, 0.3), min_size=4, max_size=4))
+def test_the_bounded_repair_is_feasible_exactly_when_the_exact_check_passes(shape):
+    """Whatever the candidate, a bounded evaluation's verdict is the exact check's on the durations
+    it returns, with those durations inside the bounds."""
+    via = np.radians([[0.0, 0.0], [30.0, -10.0], [10.0, 20.0]])
+    limits = JointLimits.create(2, velocity=np.radians([50, 50]), acceleration=np.radians([100, 100]),
+                                jerk=np.radians([500, 500]))
+    problem = TimingProblem(via, "cubic", limits, bounds=(0.05, 2.0))
+    evaluation = problem.evaluate(np.array([shape]))
+    exact = kinematic_figures(problem.trajectory(evaluation.durations[0])).violations(limits)
+    h = evaluation.durations[0]
+    inside = bool(np.all(h >= 0.05 * (1 - 1e-12)) and np.all(h <= 2.0 * (1 + 1e-12)))
+    assert bool(evaluation.feasible[0]) == (exact == [] and inside)
+
+
+@given(st.lists(st.floats(0.0, 2e-9), min_size=3, max_size=60), st.floats(0.1, 1.0))
+def test_every_given_via_point_is_within_the_repeat_tolerance_of_the_one_planned(steps, move):
+    """A chain of steps each below the repeat tolerance is not merged into its first via-point as a
+    whole: each given via-point lies within the tolerance of the via-point it is merged into, and the
+    via-points kept are further apart than it (the second joint's last move makes it a motion)."""
+    from planner.timing.problem import REPEAT_TOLERANCE
+
+    first = np.concatenate(([0.0], np.cumsum(steps)))
+    given = np.column_stack((first, np.where(np.arange(len(first)) == len(first) - 1, move, 0.0)))
+    problem = TimingProblem(given, "cubic", JointLimits.create(2, velocity=[1.0, 1.0]))
+    planned = problem.via_points[problem.via_index]
+    assert np.abs(planned - given).max() <= REPEAT_TOLERANCE
+    assert np.all(np.abs(np.diff(problem.via_points, axis=0)).max(axis=1) > REPEAT_TOLERANCE)
+    assert np.all(np.diff(problem.via_index) >= 0) and problem.via_index[0] == 0
+
+
+@pytest.mark.parametrize("call, named", [
+    (lambda p: p.evaluate_durations([1.0, 1.0, 1.0]), "4 segment durations, got 3"),
+    (lambda p: p.evaluate_durations([1.0] * 5), "4 segment durations, got 5"),
+    (lambda p: p.evaluate_durations([-1.0, 1.0, 1.0, 1.0]), "durations[0] is -1.0 s"),
+    (lambda p: p.evaluate_durations([0.0, 1.0, 1.0, 1.0]), "durations[0] is 0.0 s"),
+    (lambda p: p.evaluate([[1.0, np.nan, 1.0, 1.0]]), "candidates"),
+    (lambda p: p.to_search_space(None), "durations must be numeric"),
+    (lambda p: p.coefficients([1.0, 1.0, 1.0, 1.0], np.zeros((1, 3, 2, 3))), "fixes its via-point states"),
+    (lambda p: TimingProblem(3, "cubic", p.limits), "via_points"),
+    (lambda p: TimingProblem(None, "cubic", p.limits), "via_points"),
+])
+def test_timing_problem_methods_name_a_bad_argument(call, named):
+    """TimingProblem's public methods check what they are given: a wrong count, a duration <= 0 or
+    not a number, states for a family that fixes them, via-points that are no array."""
+    problem = TimingProblem([[0.0, 0.0], [1.0, 0.5], [2.0, 0.0]], "cubic", JointLimits.create(2, velocity=[1.0, 1.0]))
+    with pytest.raises(InputError, match=named.replace("[", r"\[").replace("]", r"\]")):
+        call(problem)
+    assert problem.coefficients([1.0, 1.0, 1.0, 1.0]).shape == (1, 4, 2, 4)  # a list is as good as an array
+
+
+def test_free_states_of_the_wrong_shape_are_named():
+    problem = TimingProblem([[0.0], [1.0], [0.5]], "hermite7", JointLimits.create(1, velocity=[1.0]))
+    with pytest.raises(InputError, match=r"states must have shape \(1, 3, 1, 3\)"):
+        problem.evaluate_states([1.0, 1.0], np.zeros((1, 2, 1, 3)))

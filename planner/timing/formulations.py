@@ -465,7 +465,9 @@ class Hermite7Formulation(SplineFormulation):
         trajectory meets them, so they cut nothing off; without them a knot state that no limit bounds
         ran off (IPOPT's steps of norm 1e8) between the cuts of one round."""
         limits = self.limits
-        rows = []
+        rows: list = []
+        if self.via_points.shape[0] < 3:  # one segment from rest to rest: no via-point state is free
+            return rows
         before, after = h[:-1], h[1:]  # the segments on either side of each interior via-point
         for j in range(self.joint_count):
             velocity, acceleration, jerk = (float(limits.magnitudes[d, j]) for d in range(3))

@@ -42,9 +42,17 @@ import numpy as np
 
 from ..errors import InfeasibleError, InputError
 from ..kinematics import Violation, batch_scale_factors, jerk_energy, position_range
-from ..limits import FEASIBILITY_TOLERANCE, QUANTITIES, JointLimits, in_degrees, in_degrees_apart, time_scale_factor
+from ..limits import (
+    FEASIBILITY_TOLERANCE,
+    QUANTITIES,
+    JointLimits,
+    in_degrees,
+    in_degrees_apart,
+    ratio_exceeded,
+    time_scale_factor,
+)
 from ..splines import FAMILIES, PiecewisePolynomial, SplineFamily, get_family, powers
-from ..validate import DURATION_BOUND_RANGE, finite_array
+from ..validate import DURATION_BOUND_RANGE, finite_array, positive_durations
 
 OBJECTIVES = ("time", "time-jerk")
 #: Consecutive via-points closer than this in every joint [rad] are one via-point.
@@ -109,7 +117,8 @@ class TimingProblem:
                              f"got {type(family).__name__}")
         if not isinstance(limits, JointLimits):
             raise InputError(f"limits must be a JointLimits (JointLimits.create), got {type(limits).__name__}")
-        given, _ = self.family.check(via_points, np.ones(self.family.segment_count(len(via_points))))
+        given = finite_array("via_points", via_points, 2)
+        given, _ = self.family.check(given, np.ones(self.family.segment_count(len(given))))
         self.given_via_points = given
         self.via_points, self.via_index = _merge_repeats(given)
         if limits.joint_count != self.joint_count:
@@ -179,7 +188,7 @@ class TimingProblem:
         assert self.bounds is not None
         _, ratios, _ = self._figures(np.full((1, self.segment_count), self.bounds[1]))
         ratios = ratios[0]
-        if ratios.max() > 1.0 + FEASIBILITY_TOLERANCE:
+        if ratio_exceeded(ratios).any():
             d, j = (int(i) for i in np.unravel_index(np.argmax(ratios), ratios.shape))
             limit = float(self.limits.magnitudes[d, j])
             excess = Violation(self.limits.names[j], j, QUANTITIES[d], d + 1, float(ratios[d, j]) * limit, limit)
@@ -202,22 +211,57 @@ class TimingProblem:
 
     def to_search_space(self, durations: np.ndarray) -> np.ndarray:
         """Map repaired durations back into the search box (scale to max 1 when unbounded)."""
+        durations = self._batch("durations", durations)
         if self.bounds is not None:
             return durations
         return np.clip(durations / durations.max(axis=-1, keepdims=True), SHAPE_FLOOR, 1.0)
 
     # ------------------------------------------------------------------ evaluation
 
+    def _batch(self, name: str, durations) -> np.ndarray:
+        """``durations`` as a (B, S) array of durations [s] > 0 for this problem's S segments.
+
+        Raises:
+            InputError: naming ``name``: not numbers, the wrong count, or not finite and > 0.
+        """
+        return np.atleast_2d(positive_durations(name, durations, self.segment_count))
+
+    def _states(self, states, batch: int) -> np.ndarray | None:
+        """Via-point states as a (B, n, J, 3) array of finite numbers, or None.
+
+        Raises:
+            InputError: states not of that shape, not finite, or given for a family that fixes them.
+        """
+        if states is None:
+            return None
+        if not self.family.free_states:
+            raise InputError(f"the {self.family.name} family fixes its via-point states from the durations")
+        array = finite_array("states", states, np.ndim(states))
+        shape = (batch, *self.via_points.shape, 3)
+        if array.shape != shape:
+            raise InputError(f"states must have shape {shape} (velocity, acceleration and jerk of every distinct "
+                             f"via-point, per duration vector), got {array.shape}")
+        return array
+
     def coefficients(self, durations: np.ndarray, states: np.ndarray | None = None) -> np.ndarray:
         """(B, S, J, D+1) the family's coefficients for durations (B, S) [s], and via-point states
-        (B, n, J, 3) where the family's are free (None: its fixed rule)."""
+        (B, n, J, 3) where the family's are free (None: its fixed rule).
+
+        Raises:
+            InputError: durations or states of the wrong shape or values (``_batch``, ``_states``).
+        """
+        durations = self._batch("durations", durations)
+        return self._coefficients(durations, self._states(states, len(durations)))
+
+    def _coefficients(self, durations: np.ndarray, states: np.ndarray | None) -> np.ndarray:
+        """``coefficients`` of checked arrays."""
         if states is None:
             return self.family.batch_coefficients(self.via_points, durations)
         return self.family.coefficients_from_states(self.via_points, durations, states)
 
     def _figures(self, durations: np.ndarray, states: np.ndarray | None = None):
         """Coefficients, constraint ratios (B, 3, J) and time-scale factors (B,) of durations (B, S)."""
-        coefficients = self.coefficients(durations, states)
+        coefficients = self._coefficients(durations, states)
         return (coefficients, *batch_scale_factors(coefficients, durations, self.limits))
 
     def _position_excess(self, coefficients: np.ndarray, durations: np.ndarray) -> np.ndarray:
@@ -245,7 +289,7 @@ class TimingProblem:
         scaled trajectory's ratios are r_d / s^d, its jerk energy E / s^5 and
         its positions unchanged.
         """
-        x = np.atleast_2d(np.asarray(candidates, dtype=float))
+        x = self._batch("candidates", candidates)
         coefficients, ratios, scale = self._figures(x)
         energy = self._energy(coefficients, x)
         scale = self._repair_scale(scale, energy, x)
@@ -259,7 +303,7 @@ class TimingProblem:
         for _ in range(_REPAIR_ROUNDS):
             h = np.clip(h, self.duration_floor, self.bounds[1])
             coefficients, ratios, scale = self._figures(h)
-            if np.all(scale <= 1.0 + FEASIBILITY_TOLERANCE):
+            if not ratio_exceeded(ratios).any():
                 break
             h = h * np.maximum(scale, 1.0)[:, None]
         return self._score(h, ratios, self._position_excess(coefficients, h), self._energy(coefficients, h))
@@ -284,7 +328,7 @@ class TimingProblem:
         worst = time_scale_factor(ratios)
         total = h.sum(axis=1)
         value = total if self.objective_name == "time" else self.weights[0] * total + self.weights[1] * energy
-        feasible = (worst <= 1.0 + FEASIBILITY_TOLERANCE) & (position_excess <= FEASIBILITY_TOLERANCE)
+        feasible = ~ratio_exceeded(ratios).any(axis=(-2, -1)) & (position_excess <= FEASIBILITY_TOLERANCE)
         feasible &= np.all(h >= self.duration_floor * (1 - 1e-12), axis=1)
         if self.bounds is not None:
             feasible &= np.all(h <= self.bounds[1] * (1 + 1e-12), axis=1)
@@ -295,7 +339,8 @@ class TimingProblem:
     def evaluate_durations(self, durations, states: np.ndarray | None = None) -> Evaluation:
         """Evaluate durations (B, S) [s] (and free via-point states (B, n, J, 3)) exactly as given,
         without repair."""
-        h = np.atleast_2d(np.asarray(durations, dtype=float))
+        h = self._batch("durations", durations)
+        states = self._states(states, len(h))
         coefficients, ratios, _ = self._figures(h, states)
         return replace(self._score(h, ratios, self._position_excess(coefficients, h), self._energy(coefficients, h)),
                        states=states)
@@ -306,10 +351,14 @@ class TimingProblem:
         s^3 (``time_scale_factor``; for ``time-jerk`` no less than the ray's optimum), so every limit
         holds and one is reached. Bounds are not enforced by the repair (the NLP imposes them):
         a result outside them is penalised."""
-        h = np.atleast_2d(np.asarray(durations, dtype=float))
-        coefficients, _, scale = self._figures(h, states)
+        h = self._batch("durations", durations)
+        checked = self._states(states, len(h))
+        if checked is None:
+            raise InputError("evaluate_states needs the via-point states (B, n, J, 3); evaluate repairs "
+                             "durations alone")
+        coefficients, _, scale = self._figures(h, checked)
         scale = self._repair_scale(scale, self._energy(coefficients, h), h)
-        return self.evaluate_durations(h * scale[:, None], states / powers(scale, 4)[:, None, None, 1:])
+        return self.evaluate_durations(h * scale[:, None], checked / powers(scale, 4)[:, None, None, 1:])
 
     def trajectory(self, durations, states: np.ndarray | None = None) -> PiecewisePolynomial:
         """The family's trajectory for one duration vector (S,) [s] (and, where the family's are free,
@@ -320,14 +369,21 @@ class TimingProblem:
 
 
 def _merge_repeats(via_points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Distinct consecutive via-points (n', J) and the index (n,) of each given one among them.
+    """Distinct consecutive via-points (n', J) and the index (n,) of each given one among them: a
+    via-point within ``REPEAT_TOLERANCE`` of the last one kept, in every joint, is merged into it (so
+    every given via-point is within the tolerance of the one planned through, however long a chain
+    of small steps).
 
     Raises:
         InputError: every via-point is the same (nothing to time).
     """
-    step = np.abs(np.diff(via_points, axis=0)).max(axis=1)
-    new = np.concatenate(([True], step > REPEAT_TOLERANCE))
-    if new.sum() < 2:
+    kept = [0]
+    index = np.zeros(len(via_points), dtype=int)
+    for i in range(1, len(via_points)):
+        if np.abs(via_points[i] - via_points[kept[-1]]).max() > REPEAT_TOLERANCE:
+            kept.append(i)
+        index[i] = len(kept) - 1
+    if len(kept) < 2:
         raise InputError(f"all {len(via_points)} via-points are the same joint position "
                          f"(within {REPEAT_TOLERANCE:g} rad): there is no motion to time")
-    return via_points[new], np.cumsum(new) - 1
+    return via_points[kept], index
