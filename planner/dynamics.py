@@ -300,6 +300,28 @@ def _gravity_beyond(robot: Robot, check: RobotLimitCheck, gravity: np.ndarray, l
                            limit=float(limit[joint]))
 
 
+def check_resting_ends(robot: Robot, torque_limit: np.ndarray, via_points: np.ndarray) -> None:
+    """Refuse via-points (n, J) [rad] at whose first or last the torque limits (J,) [N m] cannot hold the
+    arm: every family starts and ends at rest, so the torque there is gravity's alone, g(q), whatever
+    the timing (checked before it, not after).
+
+    Raises:
+        InfeasibleError: naming the joint, the waypoint (first or last), g and the limit.
+    """
+    ends = via_points[[0, -1]]
+    gravity = joint_torques(robot, ends, np.zeros_like(ends), np.zeros_like(ends))
+    over = np.abs(gravity) > torque_limit
+    if over.any():
+        end, joint = np.unravel_index(int(np.argmax(np.where(over, np.abs(gravity) / torque_limit, -np.inf))),
+                                      over.shape)
+        where = "first" if end == 0 else "last"
+        raise InfeasibleError(f"joint {robot.joint_names[joint]!r} needs {gravity[end, joint]:.4g} N m just to hold "
+                              f"still at the {where} waypoint, where the trajectory rests, beyond its torque limit "
+                              f"{torque_limit[joint]:.4g} N m: no timing helps; raise limits.torque_nm or move the "
+                              f"waypoint", joint=int(joint), quantity="torque", value=float(gravity[end, joint]),
+                              limit=float(torque_limit[joint]))
+
+
 def _no_common_slow_down(robot: Robot, check: RobotLimitCheck, gravity: np.ndarray, limit: np.ndarray,
                          highest: np.ndarray, needed: float, allowed: float,
                          waypoint_times: np.ndarray) -> InfeasibleError:

@@ -17,7 +17,7 @@ import numpy as np
 
 from .cartesian_path import JUMP_RAD, StraightPath, follow_straight_lines, tool_deviation, track_straight_lines
 from .concurrency import WarmWorkers, WorkerLost, map_forked
-from .dynamics import RobotLimitOutcome, joint_torques, meet_robot_limits, torque_limits
+from .dynamics import RobotLimitOutcome, check_resting_ends, joint_torques, meet_robot_limits, torque_limits
 from .errors import IKError, InfeasibleError, InputError, MissingLimitError, OutputError, PlannerError, TaskError
 from .export import coefficients_document, json_ready, write_json, write_trajectory_csv
 from .ik import IKSolution, described, pose_from_position_quaternion, solve_waypoints
@@ -555,6 +555,9 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
     def time_via_points(points: np.ndarray, what: str = "") -> tuple[PiecewisePolynomial,
                                                                       tuple[TimingProblem, OptimizationResult]]:
         progress.label = f"timing {len(points)} via-points{what} ({task.family}, {settings['algorithm']})"
+        if torque is not None:
+            assert robot is not None
+            check_resting_ends(robot, torque, points)
         problem = TimingProblem(points, task.family, limits, bounds=settings["bounds"],
                                 objective=settings["objective"], weights=settings["weights"],
                                 min_duration=task.min_segment_s)

@@ -323,12 +323,32 @@ def _ros_package_path(package_dirs):
             os.environ["ROS_PACKAGE_PATH"] = previous
 
 
+def _check_urdf_unchanged(robot) -> None:
+    """Refuse to draw a robot whose URDF file is gone or no longer the one it was loaded from (a result
+    saved after the file was edited would show another robot than it planned for).
+
+    Raises:
+        RecordingError: naming the file.
+    """
+    from .robot import file_digest  # the robot is loaded: so is its module
+
+    try:
+        now = file_digest(robot.urdf_path)
+    except OSError as exc:
+        raise RecordingError(f"cannot read the URDF {robot.urdf_path} again to draw the robot: "
+                             f"{exc.strerror or exc}") from None
+    if robot.urdf_digest and now != robot.urdf_digest:
+        raise RecordingError(f"the URDF {robot.urdf_path} has changed since the robot was loaded: the recording "
+                             f"would draw another robot than the plan's; plan again with it as it is now")
+
+
 def _log_robot(rec, result, times: np.ndarray, positions: np.ndarray):
     """Log the robot, animated, and the scene around it; returns the 3D view's eye, framing them all."""
     import rerun as rr
     import rerun.urdf as rru
 
     robot = result.robot
+    _check_urdf_unchanged(robot)
     with _ros_package_path(robot.package_dirs):
         try:
             tree = rru.UrdfTree.from_file_path(robot.urdf_path, entity_path_prefix="robot")

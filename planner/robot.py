@@ -11,6 +11,7 @@ single-axis revolute joints (task values are in degrees).
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 import stat
@@ -68,6 +69,8 @@ class Robot:
         missing_meshes: meshes the URDF names that are not found (as named): nothing is drawn for them.
         locked_positions: where the joints that do not move the tool are held [rad or m], by name
             (one-coordinate joints; ``_locked_configuration``).
+        urdf_digest: ``file_digest`` of the URDF as it was loaded: the recording reads the file again
+            and refuses one that has changed since.
     """
 
     name: str
@@ -81,6 +84,7 @@ class Robot:
     placeholder_velocity: tuple[str, ...] = ()
     missing_meshes: tuple[str, ...] = ()
     locked_positions: dict[str, float] = field(default_factory=dict)
+    urdf_digest: str = ""
 
     @property
     def joint_names(self) -> list[str]:
@@ -240,7 +244,12 @@ class Robot:
         missing = _check_meshes(Path(urdf_path), package_dirs)
         held = {model.names[j]: float(reference[model.joints[j].idx_q]) for j in locked if model.joints[j].nq == 1}
         return cls(name, reduced, reduced.createData(), tool_frame, _frame_id(reduced, tool_frame), limits,
-                   Path(urdf_path), package_dirs, placeholder, missing, held)
+                   Path(urdf_path), package_dirs, placeholder, missing, held, file_digest(Path(urdf_path)))
+
+
+def file_digest(path: Path) -> str:
+    """The SHA-256 of a file's bytes, in hex (OSError where it cannot be read)."""
+    return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
 def _nfc(name: str) -> str:

@@ -821,3 +821,27 @@ def test_the_summary_panel_says_what_the_exact_check_says():
                                  optimization=SimpleNamespace(algorithm="test", feasible=True))
         verdicts.append(plan_summary(result).splitlines()[0])
     assert verdicts == ["### t: feasible", "### t: NOT feasible (a limit is exceeded)"]
+
+
+@pytest.mark.parametrize("change", ["edited", "removed"])
+def test_a_urdf_changed_after_planning_is_not_drawn(tmp_path, change):
+    """The recording reads the URDF again: one edited since the plan would draw another robot than the
+    plan's (silently), one removed could not be drawn. Both are refused, and nothing is published."""
+    import shutil
+
+    from planner import make_task
+
+    root = Path(__file__).resolve().parents[1]
+    urdf = tmp_path / "puma.urdf"
+    shutil.copy(root / "robots" / "puma560.urdf", urdf)
+    shutil.copy(root / "robots" / "puma560.limits.yaml", tmp_path / "puma.limits.yaml")
+    result = plan(make_task(robot={"urdf": urdf, "tool_frame": "tool"},
+                            joints_deg=[[0, 0, 0, 0, 0, 0], [10, -10, 20, 0, 10, 0]]))
+    if change == "edited":
+        urdf.write_text("<robot name='x'><link name='a'/></robot>")
+    else:
+        urdf.unlink()
+    expected = "has changed since the robot was loaded" if change == "edited" else "cannot read the URDF"
+    with pytest.raises(RecordingError, match=expected):
+        result.save(tmp_path / "out")
+    assert not (tmp_path / "out").exists()

@@ -683,3 +683,25 @@ def test_free_states_of_the_wrong_shape_are_named():
     problem = TimingProblem([[0.0], [1.0], [0.5]], "hermite7", JointLimits.create(1, velocity=[1.0]))
     with pytest.raises(InputError, match=r"states must have shape \(1, 3, 1, 3\)"):
         problem.evaluate_states([1.0, 1.0], np.zeros((1, 2, 1, 3)))
+
+
+Q_BASE = {"version": 1, "name": "q_base",
+          "waypoints": {"joints_deg": [[0.000912, -0.03087], [0.145859, 0.081892], [-0.157816, -0.129694],
+                                       [-0.177392, -0.176984], [-0.153462, -0.152642], [0.083755, -0.277198]]},
+          "limits": {"acceleration_deg_s2": [683.2748, 12.0001], "jerk_deg_s3": [414.6119, 66.6299]},
+          "trajectory": {"family": "quintic"}, "optimizer": {"algorithm": "nlp"}}
+
+
+def test_where_no_shape_converges_the_nlp_tries_equal_durations_and_says_so():
+    """IPOPT stopped both shapes' starts at its iteration cap on these via-points (a sweep's case), and
+    converged 2 % lower on the same via-points shifted by 360 deg: a third start from equal durations
+    reaches that optimum, and the stop reason names the starts that did not converge."""
+    from planner import plan
+
+    shifted = {**Q_BASE, "waypoints": {"joints_deg": (np.array(Q_BASE["waypoints"]["joints_deg"]) + 360).tolist()}}
+    base, other = plan(Q_BASE), plan(shifted)
+    assert other.optimization.stop_reason == "NLP from 2 shapes"
+    assert base.trajectory.total_time == pytest.approx(other.trajectory.total_time, rel=1e-9)
+    assert [s.label for s in base.optimization.starts] == ["cruise", "stop-at-turns", "uniform"]
+    assert base.optimization.stop_reason == ("NLP from 3 shapes; 2 of 3 starts did not converge (start cruise: "
+                                             "IPOPT Maximum_Iterations_Exceeded)")
