@@ -8,6 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
 
 from planner import TaskError, paper
 from planner.task import RANGES, load_task, make_task, parse_task
@@ -577,3 +580,24 @@ def test_a_hand_made_task_is_planned_as_a_task_file_would_give_it():
                          (replace(task, ik=IKOptions(branch="continuous")), "ik")):
         with pytest.raises(TaskError, match=f"^{key}: applies to cartesian waypoints only"):
             plan(changed)
+
+
+
+
+
+
+
+@given(arrays(float, (4, 3), elements=st.floats(-10.0, 10.0)), arrays(float, 3, elements=st.floats(0.01, 50.0)))
+@settings(max_examples=30, deadline=None)
+def test_a_task_checked_again_keeps_its_numbers_exactly(via, velocity):
+    """``check_task`` goes through the task document in degrees and back: its radians would move by an
+    ulp (4 of 50 via-point values of a sweep's walk), enough for quintic's NLP to converge on one and
+    stop at its iteration cap on the other, 12 % apart. The numbers given are kept."""
+    from dataclasses import replace
+
+    from planner.task import check_task
+
+    task = make_task(joints_deg=[[0, 0, 0], [1, 1, 1]], limits={"velocity_deg_s": [1, 1, 1]})
+    checked = check_task(replace(task, joint_waypoints=via, limits={"velocity": velocity}))
+    assert np.array_equal(checked.joint_waypoints, via) and np.array_equal(checked.limits["velocity"], velocity)
+    assert checked.joint_waypoints is not via and not checked.joint_waypoints.flags.writeable
