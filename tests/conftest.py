@@ -122,3 +122,24 @@ def assert_plan_holds(result) -> None:
     steps = np.abs(np.diff(via, axis=0))
     assert trajectory.total_time >= (steps / limits.velocity).max(axis=1).sum() * (1 - 1e-9)
     assert trajectory.total_time >= rest_to_rest_time(np.abs(via[-1] - via[0]), limits).max() * (1 - 1e-9)
+
+
+PENDULUM = """<robot name="pendulum">
+  <link name="base"/>
+  <link name="arm"><inertial><origin xyz="{length} 0 0"/><mass value="{mass}"/>
+    <inertia ixx="0.001" iyy="{inertia}" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="swing" type="revolute"><parent link="base"/><child link="arm"/><axis xyz="0 1 0"/>
+    <limit lower="-3" upper="3" velocity="2" effort="{effort}"/></joint>
+  <link name="tip"/>
+  <joint name="tip_fixed" type="fixed"><parent link="arm"/><child link="tip"/><origin xyz="{length} 0 0"/></joint>
+</robot>"""
+
+
+def pendulum(tmp_path, length=0.5, mass=2.0, inertia=0.03, effort=20.0):
+    """A one-joint pendulum robot about a horizontal axis, its mass at ``length`` [m] from it, its tip
+    frame ``tip`` at ``length`` too: tau = (I + m l^2) q'' - m g l cos q."""
+    from planner.robot import Robot
+
+    urdf = tmp_path / "pendulum.urdf"
+    urdf.write_text(PENDULUM.format(length=length, mass=mass, inertia=inertia, effort=effort))
+    return Robot.from_urdf(urdf, "tip")

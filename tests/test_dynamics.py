@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from conftest import puma_dh_frames
+from conftest import PENDULUM, pendulum, puma_dh_frames
 from planner import InfeasibleError, RobotError, TaskError, paper, plan
 from planner.dynamics import (
     check_times,
@@ -61,21 +61,6 @@ def test_puma_efforts_are_the_published_maximum_torques(puma):
     np.testing.assert_array_equal(torque_limits(puma, "urdf"), [97.6, 186.4, 89.4, 24.2, 20.1, 21.3])
 
 
-PENDULUM = """<robot name="pendulum">
-  <link name="base"/>
-  <link name="arm"><inertial><origin xyz="{length} 0 0"/><mass value="{mass}"/>
-    <inertia ixx="0.001" iyy="{inertia}" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial></link>
-  <joint name="swing" type="revolute"><parent link="base"/><child link="arm"/><axis xyz="0 1 0"/>
-    <limit lower="-3" upper="3" velocity="2" effort="{effort}"/></joint>
-  <link name="tip"/>
-  <joint name="tip_fixed" type="fixed"><parent link="arm"/><child link="tip"/><origin xyz="{length} 0 0"/></joint>
-</robot>"""
-
-
-def pendulum(tmp_path, length=0.5, mass=2.0, inertia=0.03, effort=20.0) -> Robot:
-    urdf = tmp_path / "pendulum.urdf"
-    urdf.write_text(PENDULUM.format(length=length, mass=mass, inertia=inertia, effort=effort))
-    return Robot.from_urdf(urdf, "tip")
 
 
 @given(arrays(float, (20, 3), elements=st.floats(-3, 3)))

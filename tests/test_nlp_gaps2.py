@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import planner.timing.nlp as nlp
+from conftest import pendulum
 from planner import JointLimits, paper
 from planner.timing import TimingProblem
 from planner.timing.result import SOLVED
@@ -14,17 +15,6 @@ from planner.timing.result import SOLVED
 VIA = np.deg2rad(paper.VIA_POINTS_DEG)
 PUMA = Path(__file__).resolve().parents[1] / "robots" / "puma560.urdf"
 GRAVITY = 9.81  # Pinocchio's default [m/s^2]
-# A mass m = 2 kg at l = 0.5 m from a horizontal axis, inertia I = 0.03 kg m^2 about its centre of mass:
-# tau = (I + m l^2) q'' - m g l cos q, the tip at l |q'| (as in test_dynamics.py).
-PENDULUM = """<robot name="pendulum">
-  <link name="base"/>
-  <link name="arm"><inertial><origin xyz="0.5 0 0"/><mass value="2.0"/>
-    <inertia ixx="0.001" iyy="0.03" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial></link>
-  <joint name="swing" type="revolute"><parent link="base"/><child link="arm"/><axis xyz="0 1 0"/>
-    <limit lower="-3" upper="3" velocity="2" effort="20"/></joint>
-  <link name="tip"/>
-  <joint name="tip_fixed" type="fixed"><parent link="arm"/><child link="tip"/><origin xyz="0.5 0 0"/></joint>
-</robot>"""
 
 
 def _uniform_start(problem: TimingProblem) -> np.ndarray:
@@ -199,16 +189,13 @@ def test_a_robot_without_limits_is_ignored():
 def _pendulum_problem(tmp_path, torque=None, tool_speed=None):
     """The pendulum swinging through -90, 60, -30, 90 deg (hybrid), its kinematic limits far from binding,
     with a torque or tip-speed limit; and a slow start (3 times the repaired equal durations)."""
-    from planner.robot import Robot
     from planner.timing.robot_rows import RobotConstraints
 
-    urdf = tmp_path / "pendulum.urdf"
-    urdf.write_text(PENDULUM)
     via = np.deg2rad([[-90.0], [60.0], [-30.0], [90.0]])
     limits = JointLimits.create(1, velocity=np.deg2rad([400.0]), acceleration=np.deg2rad([4000.0]),
                                 jerk=np.deg2rad([40000.0]))
     problem = TimingProblem(via, "hybrid", limits)
-    constraints = RobotConstraints(Robot.from_urdf(urdf, "tip"), None if torque is None else np.array([torque]),
+    constraints = RobotConstraints(pendulum(tmp_path), None if torque is None else np.array([torque]),
                                    tool_speed)
     return problem, constraints, _uniform_start(problem) * 3
 
