@@ -293,11 +293,18 @@ def _gravity_beyond(robot: Robot, check: RobotLimitCheck, gravity: np.ndarray, l
     reason = ("it rests there: no timing helps" if resting.any() else
               f"the motion's own torque there ({check.torque[k, joint]:.4g} N m in all) does not hold it within the "
               f"limit at this pace or any slower one: no slow-down helps")
-    return InfeasibleError(f"joint {robot.joint_names[joint]!r} needs {gravity[k, joint]:.4g} N m just to hold "
-                           f"still at {_where(check.times, k, waypoint_times)}, beyond its torque limit "
-                           f"{limit[joint]:.4g} N m; {reason}; raise limits.torque_nm or move the waypoints",
-                           joint=int(joint), quantity="torque", value=float(gravity[k, joint]),
-                           limit=float(limit[joint]))
+    return _held_still_beyond(robot, int(joint), float(gravity[k, joint]), float(limit[joint]),
+                              _where(check.times, k, waypoint_times),
+                              f"; {reason}; raise limits.torque_nm or move the waypoints")
+
+
+def _held_still_beyond(robot: Robot, joint: int, gravity: float, limit: float, where: str,
+                       then: str) -> InfeasibleError:
+    """The error "joint ... needs g N m just to hold still at ``where``, beyond its torque limit ...",
+    followed by ``then`` (why no timing helps, and what to change)."""
+    return InfeasibleError(f"joint {robot.joint_names[joint]!r} needs {gravity:.4g} N m just to hold still at "
+                           f"{where}, beyond its torque limit {limit:.4g} N m{then}", joint=joint, quantity="torque",
+                           value=gravity, limit=limit)
 
 
 def check_resting_ends(robot: Robot, torque_limit: np.ndarray, via_points: np.ndarray) -> None:
@@ -308,18 +315,14 @@ def check_resting_ends(robot: Robot, torque_limit: np.ndarray, via_points: np.nd
     Raises:
         InfeasibleError: naming the joint, the waypoint (first or last), g and the limit.
     """
-    ends = via_points[[0, -1]]
-    gravity = joint_torques(robot, ends, np.zeros_like(ends), np.zeros_like(ends))
+    gravity = gravity_torques(robot, via_points[[0, -1]])
     over = np.abs(gravity) > torque_limit
     if over.any():
         end, joint = np.unravel_index(int(np.argmax(np.where(over, np.abs(gravity) / torque_limit, -np.inf))),
                                       over.shape)
-        where = "first" if end == 0 else "last"
-        raise InfeasibleError(f"joint {robot.joint_names[joint]!r} needs {gravity[end, joint]:.4g} N m just to hold "
-                              f"still at the {where} waypoint, where the trajectory rests, beyond its torque limit "
-                              f"{torque_limit[joint]:.4g} N m: no timing helps; raise limits.torque_nm or move the "
-                              f"waypoint", joint=int(joint), quantity="torque", value=float(gravity[end, joint]),
-                              limit=float(torque_limit[joint]))
+        raise _held_still_beyond(robot, int(joint), float(gravity[end, joint]), float(torque_limit[joint]),
+                                 f"the {'first' if end == 0 else 'last'} waypoint, where the trajectory rests",
+                                 ": no timing helps; raise limits.torque_nm or move the waypoint")
 
 
 def _no_common_slow_down(robot: Robot, check: RobotLimitCheck, gravity: np.ndarray, limit: np.ndarray,

@@ -135,7 +135,10 @@ class Robot:
         if not isinstance(path, (str, os.PathLike)):
             raise RobotFileError(f"a URDF is given by its path (text or path-like), not {type(path).__name__}",
                                  path=None)
-        folders = [package_dirs] if isinstance(package_dirs, (str, os.PathLike)) else _iterable(package_dirs)
+        try:
+            folders = [package_dirs] if isinstance(package_dirs, (str, os.PathLike)) else list(package_dirs)
+        except TypeError:  # no list at all: refused below with it
+            folders = [package_dirs]
         if not all(isinstance(d, (str, os.PathLike)) for d in folders):
             raise InputError(f"package_dirs must be a folder or a list of folders (text or path-like), got "
                              f"{shown(package_dirs)}")
@@ -293,14 +296,6 @@ def _frame_id(model: pin.Model, name: str) -> int:
     found = [i for i, frame in enumerate(model.frames) if frame.name == name]
     bodies = [i for i in found if model.frames[i].type == pin.FrameType.BODY]
     return (bodies or found)[0]
-
-
-def _iterable(value) -> list:
-    """``value``'s items, or ``[None]`` (no folder) where it has none to give."""
-    try:
-        return list(value)
-    except TypeError:
-        return [None]
 
 
 def package_roots(package_dirs) -> list[Path]:

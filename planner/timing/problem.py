@@ -340,7 +340,10 @@ class TimingProblem:
         """Evaluate durations (B, S) [s] (and free via-point states (B, n, J, 3)) exactly as given,
         without repair."""
         h = self._batch("durations", durations)
-        states = self._states(states, len(h))
+        return self._evaluate_durations(h, self._states(states, len(h)))
+
+    def _evaluate_durations(self, h: np.ndarray, states: np.ndarray | None) -> Evaluation:
+        """``evaluate_durations`` of checked arrays."""
         coefficients, ratios, _ = self._figures(h, states)
         return replace(self._score(h, ratios, self._position_excess(coefficients, h), self._energy(coefficients, h)),
                        states=states)
@@ -358,7 +361,7 @@ class TimingProblem:
                              "durations alone")
         coefficients, _, scale = self._figures(h, checked)
         scale = self._repair_scale(scale, self._energy(coefficients, h), h)
-        return self.evaluate_durations(h * scale[:, None], checked / powers(scale, 4)[:, None, None, 1:])
+        return self._evaluate_durations(h * scale[:, None], checked / powers(scale, 4)[:, None, None, 1:])
 
     def trajectory(self, durations, states: np.ndarray | None = None) -> PiecewisePolynomial:
         """The family's trajectory for one duration vector (S,) [s] (and, where the family's are free,
