@@ -38,10 +38,12 @@ def _interrupt(signum, frame):
 def _plan(args) -> int:
     from .outputs import output_folder
     from .pipeline import OUTPUT_FILES, output_writers, plan
+    from .task import load_task
     progress = TerminalProgress("optimizing", quiet=args.quiet)
+    task = load_task(args.task)  # a missing or malformed task is named before the output folder's state
     # The writers first: forked before the output folder is locked, they do not hold its lock.
     with output_writers() as writers, output_folder(args.out, force=args.force, files=OUTPUT_FILES) as staging:
-        result = plan(args.task, progress=progress)
+        result = plan(task, progress=progress)
         progress.note(f"writing the outputs to {_printable(str(args.out))}")
         result.write(staging, writers=writers)
     interrupts.finish()  # published: a signal from now on changes nothing
@@ -157,6 +159,18 @@ def _seed(text: str) -> int:
     return value
 
 
+class _Once(argparse.Action):
+    """Store an option's value and refuse a second one: argparse would keep the last without a word, and
+    the first (an output path, say) would be lost."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        given = namespace.__dict__.setdefault("_given_once", {})
+        if self.dest in given:
+            parser.error(f"{option_string} given twice ({given[self.dest]!r}, then {values!r}): give it once")
+        given[self.dest] = values
+        setattr(namespace, self.dest, values)
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse with one-line usage errors (exit 2), like every other error of the command line."""
 
@@ -187,17 +201,20 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(dest="command")
     plan = commands.add_parser("plan", help="plan a task file and write the outputs")
     plan.add_argument("task", help="YAML task file")
-    plan.add_argument("--out", default="out", help="output folder (default: out); created if absent, refused if "
-                                                   "it holds files the planner did not write (see --force)")
+    plan.add_argument("--out", default="out", action=_Once,
+                      help="output folder (default: out); created if absent, refused if it holds files the planner "
+                           "did not write (see --force)")
     plan.add_argument("--force", action="store_true",
                       help="write into a folder of other files: the planner's files are replaced, the rest kept")
     plan.add_argument("--quiet", action="store_true", help="print nothing on success")
     plan.set_defaults(run=_plan)
     reproduce = commands.add_parser("reproduce", help="reproduce the source paper's tables and figure")
-    reproduce.add_argument("--out", default="out/reproduce", help="output folder (default: out/reproduce)")
+    reproduce.add_argument("--out", default="out/reproduce", action=_Once,
+                           help="output folder (default: out/reproduce)")
     reproduce.add_argument("--force", action="store_true", help="write into a folder of other files (as plan --force)")
     reproduce.add_argument("--quick", action="store_true", help="small optimizer budgets (for tests)")
-    reproduce.add_argument("--seed", type=_seed, default=0, help="seed of the stochastic optimizers (default: 0)")
+    reproduce.add_argument("--seed", type=_seed, default=0, action=_Once,
+                           help="seed of the stochastic optimizers (default: 0)")
     reproduce.add_argument("--quiet", action="store_true", help="print nothing on success")
     reproduce.set_defaults(run=_reproduce)
     replay = commands.add_parser("replay", help="open a trajectory.rrd in the Rerun viewer (needs a display), "
@@ -205,12 +222,12 @@ def build_parser() -> argparse.ArgumentParser:
     replay.add_argument("recording", help="a trajectory.rrd written by planner plan")
     replay.add_argument("--check", action="store_true",
                         help="read it back without a viewer and re-check it against its recorded limits")
-    replay.add_argument("--export-csv", metavar="PATH", help="write its joint samples as CSV")
-    replay.add_argument("--screenshot", metavar="OUT.png",
+    replay.add_argument("--export-csv", metavar="PATH", action=_Once, help="write its joint samples as CSV")
+    replay.add_argument("--screenshot", metavar="OUT.png", action=_Once,
                         help="render it with Rerun's headless viewer (no display needed, but a graphics adapter: "
                              "a GPU, or apt-get install mesa-vulkan-drivers) and write a PNG")
     from .screenshot import time_argument  # light: the standard library and planner.errors only
-    replay.add_argument("--time", type=time_argument, metavar="T",
+    replay.add_argument("--time", type=time_argument, metavar="T", action=_Once,
                         help="time of the --screenshot [s] (default: half the total time)")
     replay.add_argument("--force", action="store_true", help="replace an existing --export-csv or --screenshot file")
     replay.set_defaults(run=_replay)

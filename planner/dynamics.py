@@ -41,8 +41,9 @@ import numpy as np
 import pinocchio as pin
 
 from .errors import InfeasibleError, MissingLimitError, RobotFileError, TaskError
+from .limits import ratio_exceeded
 from .read_only import ReadOnlyArrays, freeze_arrays
-from .robot import Robot
+from .robot import MAX_PLACEMENT_M, Robot
 from .splines import PiecewisePolynomial
 
 #: Samples per second of the torque and tool-speed checks [Hz].
@@ -142,21 +143,38 @@ INERTIA_TOLERANCE = 1e-6
 
 
 def _check_inertias(robot: Robot) -> None:
-    """Every body's rotational inertia (about its centre of mass) is one a body can have: positive
-    semidefinite, within ``INERTIA_TOLERANCE``. Pinocchio takes a negative or indefinite one as it is,
-    and the torques computed from it would be another robot's.
+    """Every body's inertial parameters are ones a body can have: finite, its centre of mass within
+    ``MAX_PLACEMENT_M`` of its joint along each axis, its radius of gyration sqrt(I_max / m) too, and its rotational
+    inertia (about the centre of mass) positive semidefinite within ``INERTIA_TOLERANCE``. Pinocchio
+    takes them as they are, and the torques computed from them would be another robot's (a centre of
+    mass 1e160 m away made its inertia NaN; a moment of 1e300 kg m^2 overflowed the timing).
 
     Raises:
-        RobotFileError: naming the body's joint, its smallest principal moment and the largest.
+        RobotFileError: naming the body's joint and the value (the smallest principal moment and the
+            robot's largest, for an indefinite inertia).
     """
-    moments = [np.linalg.eigvalsh(inertia.inertia) for inertia in robot.model.inertias]
+    def refuse(index: int, problem: str) -> RobotFileError:
+        return RobotFileError(f"the body moved by joint {robot.model.names[index]!r} has {problem}: torque limits "
+                              f"need true inertial parameters; fix its <inertial> in {robot.urdf_path}",
+                              path=robot.urdf_path)
+
+    inertias = list(robot.model.inertias)
+    for index, inertia in enumerate(inertias):
+        farthest = float(np.max(np.abs(inertia.lever)))
+        if not farthest <= MAX_PLACEMENT_M:  # a far centre of mass makes the inertia about it NaN too
+            raise refuse(index, f"its centre of mass {farthest:.4g} m along an axis from the joint "
+                                f"(<inertial><origin>); at most {MAX_PLACEMENT_M:.0e} m is taken")
+        if not np.all(np.isfinite(np.append(inertia.inertia.ravel(), inertia.mass))):
+            raise refuse(index, f"a mass ({inertia.mass:.4g} kg) or an inertia that is not a finite number")
+    moments = [np.linalg.eigvalsh(inertia.inertia) for inertia in inertias]
     largest = max(float(m.max()) for m in moments)
-    for index, values in enumerate(moments):
+    for index, (inertia, values) in enumerate(zip(inertias, moments)):
         if values.min() < -INERTIA_TOLERANCE * max(largest, 1e-300):
-            raise RobotFileError(f"the body moved by joint {robot.model.names[index]!r} has an inertia no body can "
-                                 f"have (a principal moment of {values.min():.4g} kg m^2; the robot's largest is "
-                                 f"{largest:.4g}): torque limits need true inertias; fix its <inertia> in "
-                                 f"{robot.urdf_path}", path=robot.urdf_path)
+            raise refuse(index, f"an inertia no body can have (a principal moment of {values.min():.4g} kg m^2; the "
+                                f"robot's largest is {largest:.4g})")
+        if inertia.mass > 0 and math.sqrt(max(float(values.max()), 0.0) / inertia.mass) > MAX_PLACEMENT_M:
+            raise refuse(index, f"a principal moment of {values.max():.4g} kg m^2 for {inertia.mass:.4g} kg, a "
+                                f"radius of gyration above {MAX_PLACEMENT_M:.0e} m")
 
 
 def torque_slow_down(torque: np.ndarray, gravity: np.ndarray, limit: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -345,7 +363,8 @@ def meet_robot_limits(robot: Robot, trajectory: PiecewisePolynomial, torque_limi
                       tool_speed: float | None, tool_angular_speed: float | None,
                       waypoint_times: np.ndarray) -> tuple[PiecewisePolynomial, RobotLimitOutcome]:
     """``trajectory`` slowed down uniformly by the smallest factor that meets the torque and tool-speed
-    limits at the check samples (module docstring), and how.
+    limits at the check samples (module docstring), and how; not slowed where every ratio to a limit is
+    within the exact check's tolerance (``limits.ratio_exceeded``).
 
     Args:
         torque_limit: (J,) [N m]; tool_speed [m/s]; tool_angular_speed [rad/s]; None: no such limit.
@@ -373,7 +392,9 @@ def meet_robot_limits(robot: Robot, trajectory: PiecewisePolynomial, torque_limi
     if factor > allowed:
         assert check.torque is not None and torque_limit is not None
         raise _no_common_slow_down(robot, check, gravity, torque_limit, highest, factor, allowed, waypoint_times)
-    if factor > 1.0:
+    if not ratio_exceeded(factor):  # within the exact check's tolerance a limit holds, as the kinematic ones do
+        factor = 1.0
+    else:
         factor = min(factor * (1 + SLOW_DOWN_MARGIN), allowed)
         trajectory = slowed(trajectory, factor)  # the same samples, slowed: the scaling law holds at each
         check = check_robot_limits(robot, trajectory, torque_limit, tool_speed, tool_angular_speed,

@@ -23,12 +23,12 @@ from .export import coefficients_document, json_ready, write_json, write_traject
 from .ik import IKSolution, described, pose_from_position_quaternion, solve_waypoints
 from .kinematics import KinematicFigures, Violation, kinematic_figures
 from .limits import (
-    FEASIBILITY_TOLERANCE,
     LIMITED,
     QUANTITIES,
     JointLimits,
     in_degrees,
     in_degrees_apart,
+    numbers_apart,
     ratio_exceeded,
 )
 from .outputs import absolute_path, output_folder
@@ -371,6 +371,19 @@ def _binding_limit(slowed: RobotLimitOutcome) -> str:
     return keys[max(ratios, key=ratios.__getitem__)]
 
 
+def _beyond_h_max(durations: np.ndarray, bounds: tuple[float, float] | None) -> bool:
+    """Whether a duration (S,) [s] exceeds the bound h_max (beyond the exact check's tolerance)."""
+    return bounds is not None and bool(ratio_exceeded(durations.max() / bounds[1]))
+
+
+def _tightened(constraints: RobotConstraints, factor: float) -> RobotConstraints:
+    """``constraints`` with every robot-aware limit divided by ``factor``."""
+    def divided(limit):
+        return None if limit is None else limit / factor
+    return replace(constraints, torque=divided(constraints.torque), tool_speed=divided(constraints.tool_speed),
+                   tool_angular_speed=divided(constraints.tool_angular_speed))
+
+
 def check_slowed_bounds(durations: np.ndarray, bounds: tuple[float, float] | None, slowed: RobotLimitOutcome) -> None:
     """Refuse a slow-down (torque, tool speed) that puts a segment above the duration bound h_max.
 
@@ -378,13 +391,13 @@ def check_slowed_bounds(durations: np.ndarray, bounds: tuple[float, float] | Non
         TaskError: naming the robot-aware limit that set the slow-down, the segment and ``optimizer.bounds_s``.
     """
     total = float(durations.sum())
-    if (bounds is None or durations.max() <= bounds[1] * (1 + FEASIBILITY_TOLERANCE)
-            or total <= slowed.kinematic_total_s):
+    if not _beyond_h_max(durations, bounds) or total <= slowed.kinematic_total_s:
         return
     k = int(np.argmax(durations))
-    raise TaskError(_binding_limit(slowed), f"{_lengthening(slowed, total)}, and segment {k} "
-                                            f"{durations[k]:.4g} s long, above the "
-                                            f"duration bound h_max = {bounds[1]:g} s (optimizer.bounds_s): raise "
+    assert bounds is not None
+    value, bound = numbers_apart(float(durations[k]), bounds[1])
+    raise TaskError(_binding_limit(slowed), f"{_lengthening(slowed, total)}, and segment {k} {value} s long, above "
+                                            f"the duration bound h_max = {bound} s (optimizer.bounds_s): raise "
                                             f"h_max or the limit")
 
 
@@ -636,30 +649,47 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
                                      timed.via_times[at_waypoints])
         trajectory, met = meet(trajectory)
         constraints = RobotConstraints(robot, torque, given.tool_speed, given.tool_angular_speed)
+
+        def retime(nlp_limits: RobotConstraints, start_durations: np.ndarray):
+            """The NLP's timing with ``nlp_limits`` from ``start_durations`` (S,) [s], slowed down to meet the
+            robot limits densely (``meet``), with its kinematic figures and path; None where it cannot be kept:
+            the new durations reshape the spline between via-points, so its positions may leave a range (and in
+            linear mode the tool the straight lines) where the kinematic optimum's did not, or its path may need
+            more than a torque limit to hold still."""
+            with time_limit(max(deadline - time.monotonic(), 0.0)):
+                retimed = problem.trajectory(*robot_refine(problem, nlp_limits, start_durations))
+            try:
+                candidate, candidate_met = meet(retimed)
+            except InfeasibleError:
+                return None
+            candidate_figures = kinematic_figures(candidate)
+            if candidate_figures.violations(limits):
+                return None
+            candidate_path = path
+            if path is not None and task.path.mode == "linear":
+                assert poses is not None and robot is not None
+                *_, distance, angle = tool_deviation(robot, candidate, poses, path.waypoint_via)
+                if not (np.all(distance <= task.path.tolerance_m) and np.all(angle <= task.path.tolerance_rad)):
+                    return None
+                candidate_path = replace(path, max_distance_m=distance, max_angle_rad=angle)
+            return candidate, candidate_met, candidate_figures, candidate_path
+
         if met.slow_down > 1 and retimes_in_nlp(settings) and constraints.supported:
             progress.note(f"slowed down {met.slow_down:.6g} times; timing again with the torque and tool-speed "
                           f"limits in the NLP")
-            with time_limit(max(deadline - time.monotonic(), 0.0)):
-                retimed = problem.trajectory(*robot_refine(problem, constraints, result.durations * met.slow_down))
-            try:
-                candidate, candidate_met = meet(retimed)
-            except InfeasibleError:  # its path (the spline's shape changed) needs more than a limit to hold still
-                candidate = None
-            # The new durations reshape the spline between via-points: its positions may leave a range, and in
-            # linear mode the tool the straight lines, where the kinematic optimum's did not. Then it is not kept.
-            candidate_figures = None if candidate is None else kinematic_figures(candidate)
-            keeps_path = candidate_figures is not None and not candidate_figures.violations(limits)
-            if keeps_path and path is not None and task.path.mode == "linear":
-                assert poses is not None and candidate is not None
-                *_, distance, angle = tool_deviation(robot, candidate, poses, path.waypoint_via)
-                keeps_path = bool(np.all(distance <= task.path.tolerance_m)
-                                  and np.all(angle <= task.path.tolerance_rad))
-                if keeps_path:
-                    path = replace(path, max_distance_m=distance, max_angle_rad=angle)
-            if keeps_path and candidate is not None and candidate.total_time < trajectory.total_time:
-                trajectory, met = candidate, replace(candidate_met, uniform_total_s=trajectory.total_time,
-                                                     kinematic_total_s=met.kinematic_total_s)
-                figures = candidate_figures
+            found = retime(constraints, result.durations * met.slow_down)
+            if found is not None and _beyond_h_max(found[0].durations, settings["bounds"]):
+                # The dense check slowed the NLP's timing (its samples are sparser) past h_max: once more, with
+                # the robot limits tightened by that slow-down, so that the dense check needs little or none.
+                progress.note(f"slowed down {found[1].slow_down:.6g} times, the NLP's timing breaks h_max; timing "
+                              f"again with the torque and tool-speed limits {found[1].slow_down:.6g} times tighter")
+                tighter = retime(_tightened(constraints, found[1].slow_down), found[0].durations)
+                if tighter is not None and not _beyond_h_max(tighter[0].durations, settings["bounds"]):
+                    found = tighter
+            if found is not None and found[0].total_time < trajectory.total_time:
+                uniform_total = trajectory.total_time
+                trajectory, retimed_met, figures, path = found
+                met = replace(retimed_met, uniform_total_s=uniform_total, kinematic_total_s=met.kinematic_total_s)
         check_slowed_bounds(trajectory.durations, settings["bounds"], met)
         if met.uniform_total_s is not None:
             progress.note(f"timed with the torque and tool-speed limits: {trajectory.total_time:.6g} s, where slowing "

@@ -411,8 +411,8 @@ def _robot(value, path: str, base: Path | None) -> RobotSpec:
     candidates = [urdf] if urdf.is_absolute() else [p for p in ((base / urdf) if base else None, urdf) if p]
     try:
         for candidate in candidates:
-            if candidate.is_file():
-                return RobotSpec(candidate.resolve(), None, tool)
+            if candidate.is_file():  # absolute, links kept: its limits file is the one beside the path named
+                return RobotSpec(Path(os.path.abspath(candidate)), None, tool)
         other = next((candidate for candidate in candidates if candidate.exists()), None)
     except OSError as exc:  # a name too long, say
         raise TaskError(f"{path}.urdf", f"cannot read {_said(str(urdf))} ({exc.strerror or exc})") from None
@@ -686,10 +686,16 @@ def pose_entry(pose=None, *, xyz_m=None, rpy_deg=None, quat_xyzw=None, hint_deg=
 
     Raises:
         TaskError: at key path ``where``: ``pose`` is no SE3, or its rotation is no rotation matrix
-            (R^T R off the identity by more than ``UNIT_TOLERANCE``, or det R < 0).
+            (R^T R off the identity by more than ``UNIT_TOLERANCE``, or det R < 0), or a pose and a
+            position or orientation both given (the pose's would replace them).
     """
     if pose is not None:
         import pinocchio as pin
+        given = [key for key, value in (("xyz_m", xyz_m), ("rpy_deg", rpy_deg), ("quat_xyzw", quat_xyzw))
+                 if value is not None]
+        if given:
+            raise TaskError(where, f"give either a pose or xyz_m with an orientation, not both (a pose and "
+                                   f"{', '.join(given)})")
         if not isinstance(pose, pin.SE3):
             raise TaskError(where, f"a pose must be a pinocchio.SE3, got {type(pose).__name__}")
         rotation = np.asarray(pose.rotation, dtype=float)

@@ -127,6 +127,37 @@ def test_a_usage_error_names_what_is_wrong(argv, said, capsys):
 
 
 @pytest.mark.parametrize("argv, said", [
+    (["plan", "t.yaml", "--out", "a", "--out", "b"], "--out given twice ('a', then 'b'): give it once"),
+    (["replay", "t.rrd", "--export-csv", "a.csv", "--export-csv", "b.csv"], "--export-csv given twice ('a.csv', "
+                                                                           "then 'b.csv')"),
+    (["replay", "t.rrd", "--screenshot", "a.png", "--screenshot", "b.png"], "--screenshot given twice"),
+    (["replay", "t.rrd", "--screenshot", "a.png", "--time", "1", "--time", "2"], "--time given twice (1.0, then 2.0)"),
+    (["reproduce", "--out", "a", "--out", "b"], "--out given twice"),
+    (["reproduce", "--seed", "1", "--seed", "2"], "--seed given twice (1, then 2)"),
+])
+def test_an_option_given_twice_is_refused_not_overridden(argv, said, tmp_path, monkeypatch, capsys):
+    """argparse keeps the last of a repeated option without a word: ``--out A --out B`` wrote to B only."""
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as info:
+        main(argv)
+    err = capsys.readouterr().err
+    assert info.value.code == 2 and err.count("\n") == 1 and said in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_missing_task_file_is_named_before_the_output_folder(tmp_path, monkeypatch, capsys):
+    """The default ``out`` holding a user's file was reported for a mistyped task path (the folder is
+    checked before any work; a missing task file is cheaper to name and is the real problem)."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / "notes.txt").write_text("mine")
+    assert main(["plan", "nonexistent.yaml"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "nonexistent.yaml" in err and "out" not in err.replace("nonexistent", "")
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["notes.txt"]
+
+
+@pytest.mark.parametrize("argv, said", [
     (["plan", ""], "the task file's path is empty"),
     (["plan", "  "], "the task file's path is empty"),
     (["replay", ""], "the recording's path is empty"),

@@ -343,6 +343,53 @@ def test_a_slow_down_beyond_the_duration_bounds_is_refused_naming_both():
     check_slowed_bounds(result.trajectory.durations, (1.0, 20.0), result.robot_limits)  # nothing to refuse
 
 
+def test_a_retiming_that_ends_on_h_max_is_kept_within_the_exact_checks_tolerance():
+    """The NLP's re-timing with torque rows puts a segment exactly on h_max; the dense check then found the
+    torque 1e-10 above its limit, and slowing down by that (plus a margin) pushed the segment 2e-9 s past
+    h_max: a feasible task refused ("segment 3 2 s long, above ... h_max = 2 s"). A ratio within the exact
+    check's tolerance is met, as for the kinematic limits."""
+    data = held_back_task(torque_nm=[2, 40, 9, 5, 5, 5])
+    data["waypoints"]["joints_deg"].append([20, -10, 90, 0, 0, 0])
+    data["optimizer"] = {"bounds_s": [0.3, 2]}
+    result = plan(data)
+    durations = result.trajectory.durations
+    assert result.robot_limits.uniform_total_s is not None and durations.max() <= 2 * (1 + 1e-9)
+    assert np.isclose(durations.max(), 2, rtol=1e-9)  # the case: a segment on h_max
+    model = result.robot.model
+    data_ = model.createData()
+    trajectory = result.trajectory
+    states = trajectory.states(np.linspace(0, trajectory.total_time, 20001))
+    torques = np.array([pin.rnea(model, data_, q, v, a) for q, v, a in zip(*states[:3])])
+    assert (np.abs(torques).max(axis=0) / np.array([2, 40, 9, 5, 5, 5])).max() <= 1 + 1e-3
+
+
+def test_a_retiming_the_dense_check_slows_past_h_max_is_timed_again_with_tighter_limits():
+    """UR5, a 0.25 m/s tool cap and h_max = 2.5 s: the NLP (its speed rows at a few points a segment) puts a
+    segment on h_max, the dense check needs 1.006 times slower, which broke h_max, and the task was refused.
+    Timed once more with the limit 1.006 times tighter it plans within both, by an independent dense check
+    of the tool speed (Pinocchio's frame velocity at 20,001 points)."""
+    robot = Robot.from_example_robot_data("ur5", "tool0")
+    data = {"version": 1, "robot": {"name": "ur5", "tool_frame": "tool0"},
+            "waypoints": {"cartesian": [{"xyz_m": [0.40, -0.25, 0.35], "rpy_deg": [180, 0, 90]},
+                                        {"xyz_m": [0.40, -0.25, 0.12], "rpy_deg": [180, 0, 90]},
+                                        {"xyz_m": [0.40, -0.25, 0.35], "rpy_deg": [180, 0, 90]},
+                                        {"xyz_m": [0.25, 0.35, 0.40], "rpy_deg": [180, 0, 45]}]},
+            "limits": {"acceleration_deg_s2": [150, 150, 150, 300, 300, 300],
+                       "jerk_deg_s3": [600, 600, 600, 1200, 1200, 1200], "tool_speed_m_s": 0.25},
+            "optimizer": {"bounds_s": [0.2, 2.5]}}
+    result = plan(data)
+    trajectory = result.trajectory
+    assert trajectory.durations.max() <= 2.5 * (1 + 1e-9) and result.robot_limits.uniform_total_s is not None
+    times = np.linspace(0, trajectory.total_time, 20001)
+    model, data_ = robot.model, robot.model.createData()
+    speeds = []
+    for q, v in zip(trajectory.evaluate(times), trajectory.evaluate(times, 1)):
+        pin.forwardKinematics(model, data_, q, v)
+        speeds.append(np.linalg.norm(pin.getFrameVelocity(model, data_, robot.tool_frame_id,
+                                                          pin.LOCAL_WORLD_ALIGNED).linear))
+    assert max(speeds) <= 0.25 * (1 + 1e-3)
+
+
 def test_torque_limits_need_inertial_parameters(tmp_path):
     urdf = tmp_path / "bare.urdf"
     urdf.write_text(PENDULUM.replace('<inertial><origin xyz="{length} 0 0"/><mass value="{mass}"/>\n    <inertia ixx='
@@ -362,6 +409,26 @@ def test_torque_limits_refuse_an_inertia_no_body_can_have(tmp_path, inertia):
                                          rf"principal moment of {inertia:g} kg m\^2; the robot's largest is 0.001\)"):
         torque_limits(robot, "urdf")
     assert torque_limits(pendulum(tmp_path, inertia=-1e-12), "urdf").tolist() == [20.0]  # rounding is no body
+
+
+@pytest.mark.parametrize("centre, inertia, message", [
+    ("1e160", "0.03", r"its centre of mass 1e\+160 m along an axis from the joint \(<inertial><origin>\); at most "
+                      r"1e\+06 m is taken"),
+    ("2e6", "0.03", r"its centre of mass 2e\+06 m along an axis from the joint \(<inertial><origin>\); at most "
+                    r"1e\+06 m is taken"),
+    ("0.5", "1e300", r"a principal moment of 1e\+300 kg m\^2 for 2 kg, a radius of gyration above 1e\+06 m"),
+])
+def test_torque_limits_refuse_inertial_parameters_no_body_has(tmp_path, centre, inertia, message):
+    """A centre of mass 1e160 m away made Pinocchio's inertia NaN and the plan crashed (LinAlgError); a moment
+    of 1e300 kg m^2 overflowed the timing, and the error asked for "durations of a physical size". Both name
+    the body's joint now, before any timing; the robot still loads (for IK, inertias do not matter)."""
+    urdf = tmp_path / "pendulum.urdf"
+    urdf.write_text(PENDULUM.replace('<origin xyz="{length} 0 0"/><mass', f'<origin xyz="{centre} 0 0"/><mass')
+                    .format(length=0.5, mass=2.0, inertia=inertia, effort=20.0))
+    robot = Robot.from_urdf(urdf, "tip")
+    with pytest.raises(RobotError, match=rf"^the body moved by joint 'swing' has {message}: torque limits need "
+                                         rf"true inertial parameters; fix its <inertial> in "):
+        torque_limits(robot, "urdf")
 
 
 def test_the_outputs_carry_the_torques(puma, tmp_path):

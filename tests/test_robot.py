@@ -5,6 +5,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import pytest
+import yaml
 
 from conftest import puma_dh_frames
 from planner import (
@@ -16,6 +17,7 @@ from planner import (
     UnknownRobotError,
     UnsupportedRobotError,
     paper,
+    plan,
 )
 from planner.robot import Robot, load_robot
 
@@ -94,6 +96,22 @@ def arm_with_limits(tmp_path, limits_text: str | bytes) -> Path:
     limits = tmp_path / "arm.limits.yaml"
     (limits.write_bytes if isinstance(limits_text, bytes) else limits.write_text)(limits_text)
     return urdf
+
+
+def test_a_urdf_named_through_a_link_takes_the_limits_file_beside_the_link(tmp_path):
+    """A task naming a URDF through a symbolic link (a ROS workspace is made of them) takes the
+    ``NAME.limits.yaml`` beside the path it names, as ``Robot.from_urdf`` does: the target's folder's
+    file was taken instead, without a word (ten times the user's accelerations, exit 0)."""
+    (tmp_path / "arm.urdf").symlink_to(PUMA)
+    (tmp_path / "arm.limits.yaml").write_text("acceleration_deg_s2: [6, 6, 7.5, 7, 9, 8]\n"
+                                              "jerk_deg_s3: [6, 6.6, 8.5, 7, 7.5, 7]\n")
+    task = {"version": 1, "robot": {"urdf": "arm.urdf", "tool_frame": "tool"},
+            "waypoints": {"joints_deg": [[10, 15, 45, 5, 10, 6], [60, 25, 150, 20, 30, 40]]}}
+    (tmp_path / "task.yaml").write_text(yaml.safe_dump(task))
+    result = plan(tmp_path / "task.yaml")
+    assert np.allclose(np.rad2deg(result.limits.acceleration), [6, 6, 7.5, 7, 9, 8])
+    assert np.allclose(np.rad2deg(Robot.from_urdf(tmp_path / "arm.urdf", "tool").limits.acceleration),
+                       [6, 6, 7.5, 7, 9, 8])
 
 
 @pytest.mark.parametrize("text, message", [
