@@ -137,6 +137,15 @@ def torque_limits(robot: Robot, given: np.ndarray | str) -> np.ndarray:
     return limits
 
 
+def bodies_without_inertia(robot: Robot) -> list[str]:
+    """The joints whose moved body has neither mass nor rotational inertia (its links hold no <inertial>, or a
+    zero one; Pinocchio merges fixed links into the body): torques leave that body out. A virtual link
+    between two joints can be one; none of example-robot-data's arms has one."""
+    model = robot.model
+    return [str(model.names[j]) for j in range(1, model.njoints)
+            if model.inertias[j].mass == 0 and not np.any(model.inertias[j].inertia)]
+
+
 #: A body's rotational inertia may fall below positive semidefinite by this fraction of the robot's largest
 #: principal moment (rounding in a URDF's printed inertias), and no more.
 INERTIA_TOLERANCE = 1e-6

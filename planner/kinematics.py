@@ -20,7 +20,15 @@ from math import comb
 import numpy as np
 
 from .errors import InputError
-from .limits import FEASIBILITY_TOLERANCE, LIMITED, JointLimits, in_degrees_apart, ratio_exceeded, time_scale_factor
+from .limits import (
+    FEASIBILITY_TOLERANCE,
+    LIMITED,
+    JointLimits,
+    in_degrees,
+    in_degrees_apart,
+    ratio_exceeded,
+    time_scale_factor,
+)
 from .read_only import ReadOnlyArrays, freeze_arrays
 from .splines import PiecewisePolynomial, derivative_coefficients, polyval, powers
 
@@ -421,6 +429,49 @@ class KinematicFigures(ReadOnlyArrays):
                 found.append(Violation(limits.names[j], int(j), "position", 0, float(values[j]), float(bounds[j]),
                                        side))
         return found
+
+
+#: The derivative orders every family keeps continuous across its knots (position, velocity, acceleration:
+#: C2; the cubic families' jerk steps by design), the last two 0 at both ends, where every family rests.
+CONTINUOUS_ORDERS = ("position", "velocity", "acceleration")
+
+
+def continuity_breaks(trajectory: PiecewisePolynomial, names: tuple[str, ...] | list[str] | None = None) -> list[str]:
+    """Where ``trajectory`` is not a motion the planner makes, one line each (empty: none): a jump of a
+    joint's position, velocity or acceleration at a knot (the first per joint and order), or a velocity or
+    acceleration other than 0 at the start or the end. A jump counts beyond ``FEASIBILITY_TOLERANCE`` of
+    the order's scale: the largest over segments and joints of sum_i |c_i^(d)| h^i, which bounds
+    |q^(d)| there (for positions, at least 1 rad); the planner's own trajectories jump by less than 1e-12
+    of it.
+
+    On segment k, q^(d) at its start is the d-th derivative polynomial's constant term, at its end that
+    polynomial at tau = h_k (``derivative_coefficients``, ``polyval``).
+    """
+    c, h = trajectory.coefficients, trajectory.durations
+    names = names or [f"joint{j + 1}" for j in range(trajectory.joint_count)]
+    knot_times = trajectory.knot_times
+    breaks = []
+    for order, quantity in enumerate(CONTINUOUS_ORDERS):
+        derivative = derivative_coefficients(c, order)  # (S, J, D + 1 - order)
+        start = derivative[..., 0]
+        with np.errstate(over="ignore", invalid="ignore"):
+            end = polyval(derivative, np.broadcast_to(h[:, None], start.shape)[..., None])[..., 0]
+        with np.errstate(over="ignore", invalid="ignore"):  # sum_i |c_i^(d)| h^i bounds |q^(d)| on a segment
+            bound = polyval(np.abs(derivative), np.broadcast_to(h[:, None], start.shape)[..., None])
+        scale = max(float(np.max(bound)), 1.0 if order == 0 else 0.0)
+        allowed = FEASIBILITY_TOLERANCE * scale
+        jumps = np.abs(end[:-1] - start[1:])  # (S - 1, J): knot k + 1
+        for j, name in enumerate(names):
+            beyond = np.flatnonzero(~(jumps[:, j] <= allowed))
+            if beyond.size:
+                k = int(beyond[0]) + 1
+                breaks.append(f"joint {name} {quantity} jumps by {in_degrees(jumps[k - 1, j], order)} at knot {k} "
+                              f"(t = {knot_times[k]:.6g} s)")
+            for where, value in (("start", start[0, j]), ("end", end[-1, j])) if order else ():
+                if not abs(value) <= allowed:
+                    breaks.append(f"joint {name} {quantity} is {in_degrees(value, order)} at the {where}, where "
+                                  f"every trajectory rests")
+    return breaks
 
 
 def kinematic_figures(trajectory: PiecewisePolynomial) -> KinematicFigures:

@@ -17,11 +17,18 @@ import numpy as np
 
 from .cartesian_path import JUMP_RAD, StraightPath, follow_straight_lines, tool_deviation, track_straight_lines
 from .concurrency import WarmWorkers, WorkerLost, map_forked
-from .dynamics import RobotLimitOutcome, check_resting_ends, joint_torques, meet_robot_limits, torque_limits
+from .dynamics import (
+    RobotLimitOutcome,
+    bodies_without_inertia,
+    check_resting_ends,
+    joint_torques,
+    meet_robot_limits,
+    torque_limits,
+)
 from .errors import IKError, InfeasibleError, InputError, MissingLimitError, OutputError, PlannerError, TaskError
 from .export import coefficients_document, json_ready, write_json, write_trajectory_csv
 from .ik import IKSolution, described, pose_from_position_quaternion, solve_waypoints
-from .kinematics import KinematicFigures, Violation, kinematic_figures
+from .kinematics import KinematicFigures, Violation, continuity_breaks, kinematic_figures
 from .limits import (
     LIMITED,
     QUANTITIES,
@@ -175,6 +182,7 @@ class PlanResult:
             if self.robot_limits.torque_limit is not None:
                 assert self.robot is not None
                 summary["robot_limits"]["rotor_inertia_kg_m2"] = self.robot.model.armature.tolist()
+                summary["robot_limits"]["bodies_without_inertia"] = bodies_without_inertia(self.robot)
         if self.ik is not None:
             summary["ik"] = {"branch": self.task.ik.branch, "sequence_kept": self.branch_kept,
                              "timed_sequences_s": self.branch_times, "waypoints": [
@@ -526,6 +534,11 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         robot = replace(robot, limits=limits)  # IK searches the very ranges the timing enforces
         if task.robot_limits.torque is not None:  # checked now, not after IK and the timing runs
             torque = torque_limits(robot, task.robot_limits.torque)
+            empty = bodies_without_inertia(robot)
+            if empty:
+                progress.note(f"the torques leave out the bod{'ies' if len(empty) > 1 else 'y'} moved by joint"
+                              f"{'s' * (len(empty) > 1)} {', '.join(map(repr, empty))}: the URDF gives "
+                              f"{'them' if len(empty) > 1 else 'it'} no mass and no inertia")
     timings["setup"] = time.perf_counter() - start
 
     start = time.perf_counter()
@@ -703,5 +716,8 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
     exceeded = max(figures.violations(limits), key=lambda violation: violation.ratio, default=None)
     if exceeded is not None:  # never returned, whatever stage let it through (each checks its own result)
         raise InfeasibleError(f"the planned trajectory fails the exact check: {exceeded}", violation=exceeded)
+    broken = continuity_breaks(trajectory, limits.names)
+    if broken:  # a spline is continuous by construction: this guards the construction
+        raise InfeasibleError(f"the planned trajectory fails the exact check: {broken[0]}")
     return PlanResult(task, via, limits, result, trajectory, figures, timings, robot, ik, path, branch_times, kept,
                       met)

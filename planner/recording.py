@@ -54,7 +54,7 @@ from typing import TypeGuard
 import numpy as np
 
 from .errors import InputError, RecordingError, ViewerError, shown
-from .kinematics import kinematic_figures
+from .kinematics import continuity_breaks, kinematic_figures
 from .limits import DEGREE_UNITS, PROFILE_QUANTITIES, QUANTITIES, JointLimits
 from .outputs import not_utf8, utf8_path
 from .splines import PiecewisePolynomial
@@ -529,7 +529,8 @@ class RecordingCheck:
     """What ``RecordedPlan.check`` finds.
 
     Attributes:
-        violations: one line per limit the exact trajectory exceeds (empty when all hold).
+        violations: one line per limit the exact trajectory exceeds, and per break of its continuity or
+            of its rest at the ends (``continuity_breaks``); empty when all hold.
         largest_ratio: largest constraint ratio max|q^(d)| / limit over joints and orders.
         deviation: largest |sample - trajectory at the sample's time| [rad].
         tolerance: the deviation allowed by Rerun's whole-nanosecond times [rad].
@@ -567,13 +568,15 @@ class RecordedPlan:
     rate_hz: float
 
     def check(self) -> RecordingCheck:
-        """Re-run the exact limit checks and compare the samples with the trajectory."""
+        """Re-run the exact limit checks, check that the trajectory is continuous and rests at both ends
+        (``continuity_breaks``), and compare the samples with the trajectory."""
         figures = kinematic_figures(self.trajectory)
         deviation = float(np.abs(self.trajectory.evaluate(self.times) - self.positions).max())
         # A sample may sit up to one time quantum off its time: allow the position change over it.
         tolerance = _TIME_QUANTUM_NS * 1e-9 * float(figures.max_abs[0].max()) + 1e-12
         ratio = float(np.nan_to_num(figures.ratios(self.limits)).max())
-        return RecordingCheck([str(v) for v in figures.violations(self.limits)], ratio, deviation, tolerance)
+        found = [str(v) for v in figures.violations(self.limits)] + continuity_breaks(self.trajectory, self.joint_names)
+        return RecordingCheck(found, ratio, deviation, tolerance)
 
 
 def read_recording(path) -> RecordedPlan:

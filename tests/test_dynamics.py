@@ -2,6 +2,7 @@
 the slow-down law on its own, and planned trajectories checked by independent evaluations."""
 
 import re
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +25,7 @@ from planner.dynamics import (
     torque_slow_down,
 )
 from planner.kinematics import kinematic_figures
+from planner.progress import TerminalProgress
 from planner.robot import Robot
 from planner.timing import TimingProblem, optimize
 
@@ -429,6 +431,23 @@ def test_torque_limits_refuse_inertial_parameters_no_body_has(tmp_path, centre, 
     with pytest.raises(RobotError, match=rf"^the body moved by joint 'swing' has {message}: torque limits need "
                                          rf"true inertial parameters; fix its <inertial> in "):
         torque_limits(robot, "urdf")
+
+
+def test_a_moving_body_without_mass_or_inertia_is_named(tmp_path):
+    """The PUMA with link3's <inertial> left out: its torques leave that body out (joint2's largest torque
+    halves), which the plan said nothing about. It is said now, in the progress and in summary.json."""
+    urdf = tmp_path / "puma_light.urdf"
+    urdf.write_text(re.sub(r'(<link name="link3">)\s*<inertial>.*?</inertial>', r"\1", PUMA.read_text(), flags=re.S))
+    shutil.copy(PUMA.with_suffix(".limits.yaml"), tmp_path / "puma_light.limits.yaml")
+    notes = []
+    progress = TerminalProgress("t", quiet=True)
+    progress.note = notes.append
+    task = held_back_task(torque_nm="urdf")
+    task["robot"]["urdf"] = str(urdf)
+    light = plan(task, progress=progress)
+    assert light.summary()["robot_limits"]["bodies_without_inertia"] == ["joint3"]
+    assert "the torques leave out the body moved by joint 'joint3': the URDF gives it no mass and no inertia" in notes
+    assert plan(held_back_task(torque_nm="urdf")).summary()["robot_limits"]["bodies_without_inertia"] == []
 
 
 def test_the_outputs_carry_the_torques(puma, tmp_path):

@@ -6,8 +6,9 @@ from scipy.integrate import quad
 
 from conftest import via_and_durations
 from planner import JointLimits, get_family, kinematic_figures, paper, time_scale_factor
-from planner.kinematics import batch_scale_factors, column_roots, max_abs
+from planner.kinematics import batch_scale_factors, column_roots, continuity_breaks, max_abs
 from planner.limits import in_degrees_apart
+from planner.splines import PiecewisePolynomial
 
 # Reference maxima, computed independently of this code: hybrid spline, Table II via-points, Table IV
 # durations [deg/s^k].
@@ -430,3 +431,30 @@ def test_a_violation_names_its_value_and_limit_apart():
     assert position == "joint joint1 position 25.5300665 deg is above its upper limit 25.5300664 deg"
     jerk = str(Violation("j", 0, "jerk", 3, -np.deg2rad(1e-4) * (1 + 1e-8), np.deg2rad(1e-4)))
     assert jerk == "joint j jerk -0.000100000001 deg/s^3 exceeds its limit 0.0001 deg/s^3"
+
+
+@pytest.mark.parametrize("family", ["cubic", "hybrid", "quintic", "hermite7"])
+@given(data=st.data())
+def test_every_family_is_continuous_and_rests_at_both_ends(family, data):
+    """``continuity_breaks`` finds nothing in any family's spline (the exact check calls it: no false alarm)."""
+    via, durations = data.draw(via_and_durations(family))
+    assert continuity_breaks(get_family(family).build(via, durations)) == []
+
+
+@pytest.mark.parametrize("change, said", [
+    ((1, 0, 0, 0.5), "joint joint1 position jumps by 28.6479 deg at knot 1 (t = 1 s)"),
+    ((2, 1, 1, 0.2), "joint joint2 velocity jumps by 11.4592 deg/s at knot 2 (t = 2 s)"),
+    ((2, 1, 2, -0.4), "joint joint2 acceleration jumps by 45.8366 deg/s^2 at knot 2 (t = 2 s)"),
+    ((0, 0, 1, 1e-3), "joint joint1 velocity is 0.0572958 deg/s at the start, where every trajectory rests"),
+    ((3, 1, 3, 1e-3), "joint joint2 acceleration is 0.343775 deg/s^2 at the end, where every trajectory rests"),
+])
+def test_a_jump_at_a_knot_or_motion_at_an_end_is_named(change, said):
+    """One coefficient changed: the trajectory jumps at a knot, or moves at an end (every family rests there).
+    The exact check's limits bound each segment alone and did not see it."""
+    trajectory = get_family("cubic").build([[0.0, 0.0], [0.5, -1.0], [1.0, 0.5]], [1.0] * 4)
+    segment, joint, power, delta = change
+    coefficients = np.array(trajectory.coefficients)
+    coefficients[segment, joint, power] += delta
+    broken = PiecewisePolynomial(trajectory.durations, coefficients, trajectory.via_knots)
+    assert said in continuity_breaks(broken)
+    assert continuity_breaks(trajectory) == []

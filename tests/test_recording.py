@@ -16,6 +16,7 @@ from planner.cli import main
 from planner.export import read_trajectory_csv
 from planner.pipeline import plan
 from planner.recording import end_marker, read_recording, trajectory_definition, write_recording
+from planner.splines import PiecewisePolynomial
 
 ROOT = Path(__file__).resolve().parents[1]
 TASKS = ROOT / "scripts" / "tasks"
@@ -765,6 +766,25 @@ def test_a_definition_whose_trajectory_breaks_its_limits_fails_its_check(tmp_pat
     assert main(["replay", str(path), "--check"]) == 1
     said = capsys.readouterr().out
     assert "VIOLATIONS: " in said and "velocity" in said and "limits hold" not in said
+
+
+def test_a_recording_whose_trajectory_jumps_fails_its_check(tmp_path, capsys):
+    """A consistent rewrite (samples from the changed trajectory) with a 30 deg jump at a knot, each segment
+    within every limit: ``replay --check`` said "limits hold" (it bounded each segment alone)."""
+    trajectory, limits, _, _ = small_plan()
+    coefficients = np.array(trajectory.coefficients)
+    coefficients[2, 0, 0] += np.deg2rad(30)
+    jumping = PiecewisePolynomial(trajectory.durations, coefficients, trajectory.via_knots)
+    result = SimpleNamespace(trajectory=jumping, joint_names=["a", "b"], limits=limits, robot=None, feasible=True,
+                             task=SimpleNamespace(name="jump", family="cubic", sample_rate_hz=RATE_HZ,
+                                                  optimizer={"algorithm": "test"}),
+                             optimization=SimpleNamespace(algorithm="test", feasible=True))
+    write_recording(result, tmp_path / "jump.rrd")
+    check = read_recording(tmp_path / "jump.rrd").check()
+    assert check.deviation <= check.tolerance and check.largest_ratio <= 1 and not check.passed
+    assert main(["replay", str(tmp_path / "jump.rrd"), "--check"]) == 1
+    said = capsys.readouterr().out
+    assert "VIOLATIONS: joint a position jumps by 30 deg at knot 2 (t = 2 s)" in said and "limits hold" not in said
 
 
 def test_replay_replaces_an_existing_file_only_with_force(recording, tmp_path, capsys):
