@@ -425,3 +425,38 @@ def test_starts_side_by_side_under_a_time_limit_keep_what_was_solved_and_mark_wh
     assert (slow.iterations, slow.rounds, slow.status, slow.certificates) == (0, 0, nlp.OUT_OF_TIME, 0)
     np.testing.assert_array_equal(slow.durations, start * 2)
     assert slow.states is None and not timing.deadline_enforced
+
+
+@pytest.mark.parametrize("family", ["hermite7", "hybrid"])
+def test_robot_refine_slows_a_result_beyond_a_kinematic_limit_down_with_its_own_states(tmp_path, monkeypatch, family):
+    """Where the robot rounds leave a kinematic limit exceeded, ``robot_refine`` slows the result down by the
+    time-scaling lemma, with the NLP's own via-point states where the family's are free (``hermite7``:
+    ``evaluate_states``; the family's rule would give another trajectory), and returns those states
+    scaled; a result within every limit is returned as it is. The solve is replaced by a known outcome:
+    an optimum run 10 % fast, or 5 % slow."""
+    from planner.timing import optimize
+    from planner.timing.robot_rows import RobotConstraints
+    robot = pendulum(tmp_path)
+    via = np.deg2rad([[-90.0], [60.0], [-30.0], [90.0]])
+    problem = TimingProblem(via, family, JointLimits.create(1, velocity=[7.0], acceleration=[70.0], jerk=[700.0]))
+    optimum = optimize(problem, "nlp")
+    states = optimum.knot_states
+    assert (states is not None) == (family == "hermite7")
+    for factor in (0.9, 1.05):
+        fast = optimum.durations * factor
+        outcome = nlp.NLPOutcome(fast, 1, 1, "Solve_Succeeded", 0, states)
+        monkeypatch.setattr(nlp.TimingNLP, "solve", lambda self, start, outcome=outcome: outcome)
+        durations, returned = nlp.robot_refine(problem, RobotConstraints(robot, np.array([20.0]), None), fast)
+        if factor > 1:  # within every limit: kept as solved (not sped up: the robot's limits may bind)
+            assert np.array_equal(durations, fast) and (returned is states or np.array_equal(returned, states))
+            continue
+        expected = (problem.evaluate(fast[None]) if states is None
+                    else problem.evaluate_states(fast[None], states[None]))
+        assert durations.sum() > fast.sum() * 1.01
+        np.testing.assert_allclose(durations, expected.durations[0], rtol=1e-12)
+        if states is None:
+            assert returned is None
+        else:
+            np.testing.assert_allclose(returned, expected.states[0], rtol=1e-12)
+            assert problem.evaluate_states(durations[None], returned[None]).feasible[0]
+            assert not np.allclose(durations, problem.evaluate(fast[None]).durations[0], rtol=1e-6)
