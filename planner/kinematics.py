@@ -474,6 +474,26 @@ def continuity_breaks(trajectory: PiecewisePolynomial, names: tuple[str, ...] | 
     return breaks
 
 
+def via_point_misses(trajectory: PiecewisePolynomial, via_points: np.ndarray,
+                     names: tuple[str, ...] | list[str] | None = None) -> list[str]:
+    """Via-points (n, J) [rad] ``trajectory`` does not pass at its ``via_times``, one line per joint that
+    misses one (the first it misses), naming the via-point, the joint and by how much (empty: none). A
+    miss counts beyond ``2 FEASIBILITY_TOLERANCE`` of max(1 rad, |via-point|): the planner merges via-points
+    within 1e-9 rad of each other into one."""
+    via_points = np.asarray(via_points, dtype=float)
+    names = names or [f"joint{j + 1}" for j in range(trajectory.joint_count)]
+    times = trajectory.via_times
+    miss = np.abs(trajectory.evaluate(times) - via_points)
+    allowed = 2 * FEASIBILITY_TOLERANCE * np.maximum(np.abs(via_points), 1.0)
+    found = []
+    for j, name in enumerate(names):
+        beyond = np.flatnonzero(~(miss[:, j] <= allowed[:, j]))
+        if beyond.size:
+            i = int(beyond[0])
+            found.append(f"joint {name} misses via-point {i} by {in_degrees(miss[i, j], 0)} (t = {times[i]:.6g} s)")
+    return found
+
+
 def kinematic_figures(trajectory: PiecewisePolynomial) -> KinematicFigures:
     """All exact figures of one trajectory.
 

@@ -28,7 +28,7 @@ from .dynamics import (
 from .errors import IKError, InfeasibleError, InputError, MissingLimitError, OutputError, PlannerError, TaskError
 from .export import coefficients_document, json_ready, write_json, write_trajectory_csv
 from .ik import IKSolution, described, pose_from_position_quaternion, solve_waypoints
-from .kinematics import KinematicFigures, Violation, continuity_breaks, kinematic_figures
+from .kinematics import KinematicFigures, Violation, continuity_breaks, kinematic_figures, via_point_misses
 from .limits import (
     LIMITED,
     QUANTITIES,
@@ -716,8 +716,8 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
     exceeded = max(figures.violations(limits), key=lambda violation: violation.ratio, default=None)
     if exceeded is not None:  # never returned, whatever stage let it through (each checks its own result)
         raise InfeasibleError(f"the planned trajectory fails the exact check: {exceeded}", violation=exceeded)
-    broken = continuity_breaks(trajectory, limits.names)
-    if broken:  # a spline is continuous by construction: this guards the construction
+    broken = continuity_breaks(trajectory, limits.names) + via_point_misses(trajectory, via, limits.names)
+    if broken:  # a spline is continuous and passes its via-points by construction: this guards the construction
         raise InfeasibleError(f"the planned trajectory fails the exact check: {broken[0]}")
     return PlanResult(task, via, limits, result, trajectory, figures, timings, robot, ik, path, branch_times, kept,
                       met)

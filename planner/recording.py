@@ -54,7 +54,7 @@ from typing import TypeGuard
 import numpy as np
 
 from .errors import InputError, RecordingError, ViewerError, shown
-from .kinematics import continuity_breaks, kinematic_figures
+from .kinematics import continuity_breaks, kinematic_figures, via_point_misses
 from .limits import DEGREE_UNITS, PROFILE_QUANTITIES, QUANTITIES, JointLimits
 from .outputs import not_utf8, utf8_path
 from .splines import PiecewisePolynomial
@@ -81,14 +81,20 @@ def _entity(*parts: str) -> str:
     return rr.new_entity_path(list(parts))
 
 
-def trajectory_definition(trajectory: PiecewisePolynomial, limits: JointLimits, joint_names: list[str]) -> dict:
-    """The ``trajectory/definition`` document: the exact piecewise polynomial and the limits [SI]."""
-    return {
+def trajectory_definition(trajectory: PiecewisePolynomial, limits: JointLimits, joint_names: list[str],
+                          via_points: np.ndarray | None = None) -> dict:
+    """The ``trajectory/definition`` document: the exact piecewise polynomial, the limits [SI] and, where
+    given, the via-points (n, J) [rad] it was planned through (``via_points_rad``, passed at the knots
+    ``via_knots``), so that ``replay --check`` can confirm it passes them."""
+    document = {
         "format": FORMAT, "joint_names": list(joint_names), "durations_s": trajectory.durations.tolist(),
         "coefficients_shape": list(trajectory.coefficients.shape),
         "coefficients": trajectory.coefficients.ravel().tolist(), "via_knots": trajectory.via_knots.tolist(),
         "limits": {name: [float(v) for v in getattr(limits, name)] for name in _LIMIT_FIELDS},
     }
+    if via_points is not None:
+        document["via_points_rad"] = np.asarray(via_points, dtype=float).tolist()
+    return document
 
 
 def end_marker(times: np.ndarray, rate_hz: float) -> dict:
@@ -253,7 +259,7 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
         task=result.task.name, family=result.task.family, optimizer=optimizer_name(result),
         total_time_s=trajectory.total_time, feasible=bool(result.feasible),
         joints=", ".join(names)))
-    definition = trajectory_definition(trajectory, result.limits, names)
+    definition = trajectory_definition(trajectory, result.limits, names, getattr(result, "via_points", None))
     rec.log(_DEFINITION, rr.AnyValues(planner_definition=json.dumps(definition)), static=True)
     rec.send_columns(_SAMPLES, indexes=time_index, columns=rr.Scalars.columns(scalars=positions))
     rec.log(_SUMMARY, rr.TextDocument(plan_summary(result), media_type=rr.MediaType.MARKDOWN), static=True)
@@ -558,6 +564,7 @@ class RecordedPlan:
         limits: the limits it was planned under [SI].
         joint_names: (J,) names, as the planner knew them.
         rate_hz: the sample rate [Hz].
+        via_points: (n, J) the via-points it was planned through [rad] (None in a recording without them).
     """
 
     times: np.ndarray
@@ -566,16 +573,20 @@ class RecordedPlan:
     limits: JointLimits
     joint_names: list[str]
     rate_hz: float
+    via_points: np.ndarray | None = None
 
     def check(self) -> RecordingCheck:
         """Re-run the exact limit checks, check that the trajectory is continuous and rests at both ends
-        (``continuity_breaks``), and compare the samples with the trajectory."""
+        (``continuity_breaks``) and passes its via-points where the recording holds them
+        (``via_point_misses``), and compare the samples with the trajectory."""
         figures = kinematic_figures(self.trajectory)
         deviation = float(np.abs(self.trajectory.evaluate(self.times) - self.positions).max())
         # A sample may sit up to one time quantum off its time: allow the position change over it.
         tolerance = _TIME_QUANTUM_NS * 1e-9 * float(figures.max_abs[0].max()) + 1e-12
         ratio = float(np.nan_to_num(figures.ratios(self.limits)).max())
         found = [str(v) for v in figures.violations(self.limits)] + continuity_breaks(self.trajectory, self.joint_names)
+        if self.via_points is not None:
+            found += via_point_misses(self.trajectory, self.via_points, self.joint_names)
         return RecordingCheck(found, ratio, deviation, tolerance)
 
 
@@ -612,7 +623,7 @@ def read_recording(path) -> RecordedPlan:
     definition_text = _single_text(path, chunks.get(_DEFINITION, []), "planner_definition")
     if definition_text is None:
         raise RecordingError(f"{path}: recording is incomplete: no trajectory/definition")
-    names, trajectory, limits = _definition(path, definition_text)
+    names, trajectory, limits, via_points = _definition(path, definition_text)
     end_text = _single_text(path, chunks.get(_END, []), "planner_end")
     if end_text is None:
         raise RecordingError(f"{path}: recording is incomplete: no end marker (trajectory/end, written last); "
@@ -620,7 +631,7 @@ def read_recording(path) -> RecordedPlan:
     count, rate_hz, span = _end(path, end_text, trajectory.total_time)
     times_ns, positions = _samples(path, chunks.get(_SAMPLES, []), len(names))
     _require_complete(path, times_ns, count, rate_hz, span)
-    return RecordedPlan(times_ns / 1e9, positions, trajectory, limits, names, rate_hz)
+    return RecordedPlan(times_ns / 1e9, positions, trajectory, limits, names, rate_hz, via_points)
 
 
 def _trajectory_chunks(path: Path) -> tuple[str, dict[str, list]]:
@@ -712,8 +723,9 @@ def _numbers(where: str, data: dict, key: str, count: int | None = None, *, infi
 _MAX_COEFFICIENTS = 16
 
 
-def _definition(path: Path, text: str) -> tuple[list[str], PiecewisePolynomial, JointLimits]:
-    """Joint names, trajectory and limits from the ``trajectory/definition`` text, every field checked."""
+def _definition(path: Path, text: str) -> tuple[list[str], PiecewisePolynomial, JointLimits, np.ndarray | None]:
+    """Joint names, trajectory, limits and via-points (None where absent) from the ``trajectory/definition``
+    text, every field checked."""
     where = f"{path}: trajectory/definition"
     data = _json_object(where, text)
     if data.get("format") != FORMAT:
@@ -739,9 +751,18 @@ def _definition(path: Path, text: str) -> tuple[list[str], PiecewisePolynomial, 
     if not isinstance(limits, dict):
         raise RecordingError(f"{where}: limits must be an object of {', '.join(_LIMIT_FIELDS)}, got {shown(limits)}")
     bounds = [_numbers(f"{where}: limits", limits, key, len(names), infinite=True) for key in _LIMIT_FIELDS]
+    via_points = None
+    if "via_points_rad" in data:
+        given = data["via_points_rad"]
+        if not (isinstance(given, list) and len(given) == len(knots)
+                and all(isinstance(row, list) and len(row) == len(names) for row in given)):
+            raise RecordingError(f"{where}: via_points_rad must be {len(knots)} lists (one per via knot) of "
+                                 f"{len(names)} positions, got {shown(given)}")
+        via_points = _numbers(where, {"via_points_rad": [v for row in given for v in row]}, "via_points_rad",
+                              len(knots) * len(names)).reshape(len(knots), len(names))
     try:
         return (names, PiecewisePolynomial(durations, coefficients.reshape(shape), np.array(knots, dtype=int)),
-                JointLimits(bounds[0], bounds[1], bounds[2], bounds[3], bounds[4], names=tuple(names)))
+                JointLimits(bounds[0], bounds[1], bounds[2], bounds[3], bounds[4], names=tuple(names)), via_points)
     except InputError as exc:
         raise RecordingError(f"{where}: {exc}") from None
 

@@ -57,6 +57,7 @@ def test_recording_round_trip_matches_planner_samples(planned):
     np.testing.assert_array_equal(recorded.trajectory.coefficients, result.trajectory.coefficients)
     assert recorded.joint_names == result.joint_names
     np.testing.assert_array_equal(recorded.limits.jerk, result.limits.jerk)
+    np.testing.assert_array_equal(recorded.via_points, result.via_points)
 
 
 def test_replay_check_and_export(planned, tmp_path, capsys):
@@ -283,6 +284,12 @@ MALFORMED = {  # case: (write_like_planner arguments, a text the message must ho
     "joint_names of numbers": (dict(definition=_definition(joint_names=[1, 2])), "joint_names"),
     "joint_names empty": (dict(definition=_definition(joint_names=[])), "joint_names"),
     "joint_names repeated": (dict(definition=_definition(joint_names=["a", "a"])), "distinct texts"),
+    "via_points_rad of one via knot too few": (dict(definition=_definition(via_points_rad=[[0, 0], [1, 0.5]])),
+                                               "via_points_rad must be 3 lists (one per via knot) of 2 positions"),
+    "via_points_rad with a text": (dict(definition=_definition(via_points_rad=[[0, 0], [0.5, "x"], [1, 0.5]])),
+                                   "via_points_rad must be a list of numbers"),
+    "via_points_rad with NaN": (dict(definition=_definition(via_points_rad=[[0, 0], [0.5, float("nan")], [1, 0.5]])),
+                                "via_points_rad[3] is nan, not a finite number"),
     "joint_names one too many": (dict(definition=_definition(joint_names=["a", "b", "c"])), "coefficients_shape"),
     "durations_s a text": (dict(definition=_definition(durations_s="1, 1, 1, 1")), "durations_s"),
     "durations_s NaN": (dict(definition=_definition(durations_s=[1.0, float("nan"), 1.0, 1.0])), "durations_s[1]"),
@@ -785,6 +792,26 @@ def test_a_recording_whose_trajectory_jumps_fails_its_check(tmp_path, capsys):
     assert main(["replay", str(tmp_path / "jump.rrd"), "--check"]) == 1
     said = capsys.readouterr().out
     assert "VIOLATIONS: joint a position jumps by 30 deg at knot 2 (t = 2 s)" in said and "limits hold" not in said
+
+
+def test_a_recording_whose_trajectory_misses_a_via_point_fails_its_check(tmp_path, capsys):
+    """The recording carries the via-points it was planned through; a trajectory that does not pass one (a
+    consistent rewrite, continuous and within every limit) fails ``replay --check`` naming it. Where they
+    are passed, the check holds; a recording without them is read as before."""
+    trajectory, limits, _, _ = small_plan()
+    via = np.array([[0.0, 0.0], [0.5, -1.0], [1.0, 0.5]])
+    for name, given in (("passes", via), ("misses", via + [[0.0, 0.0], [0.0, 0.1], [0.0, 0.0]])):
+        result = SimpleNamespace(trajectory=trajectory, joint_names=["a", "b"], limits=limits, robot=None,
+                                 feasible=True, via_points=given,
+                                 task=SimpleNamespace(name=name, family="cubic", sample_rate_hz=RATE_HZ,
+                                                      optimizer={"algorithm": "test"}),
+                                 optimization=SimpleNamespace(algorithm="test", feasible=True))
+        write_recording(result, tmp_path / f"{name}.rrd")
+        recorded = read_recording(tmp_path / f"{name}.rrd")
+        np.testing.assert_array_equal(recorded.via_points, given)
+        assert recorded.check().passed == (name == "passes")
+    assert main(["replay", str(tmp_path / "misses.rrd"), "--check"]) == 1
+    assert "VIOLATIONS: joint b misses via-point 1 by 5.72958 deg (t = 2 s)" in capsys.readouterr().out
 
 
 def test_replay_replaces_an_existing_file_only_with_force(recording, tmp_path, capsys):
