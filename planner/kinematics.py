@@ -24,6 +24,7 @@ from .limits import (
     FEASIBILITY_TOLERANCE,
     LIMITED,
     JointLimits,
+    default_joint_names,
     in_degrees,
     in_degrees_apart,
     ratio_exceeded,
@@ -448,16 +449,16 @@ def continuity_breaks(trajectory: PiecewisePolynomial, names: tuple[str, ...] | 
     polynomial at tau = h_k (``derivative_coefficients``, ``polyval``).
     """
     c, h = trajectory.coefficients, trajectory.durations
-    names = names or [f"joint{j + 1}" for j in range(trajectory.joint_count)]
+    names = names or default_joint_names(trajectory.joint_count)
     knot_times = trajectory.knot_times
+    at_end = np.broadcast_to(h[:, None, None], c.shape[:2] + (1,))  # (S, J, 1): tau = h_k
     breaks = []
     for order, quantity in enumerate(CONTINUOUS_ORDERS):
         derivative = derivative_coefficients(c, order)  # (S, J, D + 1 - order)
         start = derivative[..., 0]
         with np.errstate(over="ignore", invalid="ignore"):
-            end = polyval(derivative, np.broadcast_to(h[:, None], start.shape)[..., None])[..., 0]
-        with np.errstate(over="ignore", invalid="ignore"):  # sum_i |c_i^(d)| h^i bounds |q^(d)| on a segment
-            bound = polyval(np.abs(derivative), np.broadcast_to(h[:, None], start.shape)[..., None])
+            end = polyval(derivative, at_end)[..., 0]
+            bound = polyval(np.abs(derivative), at_end)  # sum_i |c_i^(d)| h^i bounds |q^(d)| on a segment
         scale = max(float(np.max(bound)), 1.0 if order == 0 else 0.0)
         allowed = FEASIBILITY_TOLERANCE * scale
         jumps = np.abs(end[:-1] - start[1:])  # (S - 1, J): knot k + 1
@@ -481,7 +482,7 @@ def via_point_misses(trajectory: PiecewisePolynomial, via_points: np.ndarray,
     miss counts beyond ``2 FEASIBILITY_TOLERANCE`` of max(1 rad, |via-point|): the planner merges via-points
     within 1e-9 rad of each other into one."""
     via_points = np.asarray(via_points, dtype=float)
-    names = names or [f"joint{j + 1}" for j in range(trajectory.joint_count)]
+    names = names or default_joint_names(trajectory.joint_count)
     times = trajectory.via_times
     miss = np.abs(trajectory.evaluate(times) - via_points)
     allowed = 2 * FEASIBILITY_TOLERANCE * np.maximum(np.abs(via_points), 1.0)
