@@ -64,7 +64,7 @@ def test_infeasible_task_exits_2_and_keeps_existing_outputs(tmp_path, capsys):
     task = small_task(tmp_path, bounds_s=[0.1, 0.5])
     assert main(["plan", str(task), "--out", str(out)]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("error: infeasible even with every duration at h_max = 0.5 s: joint")
+    assert err.startswith("error: infeasible with durations of at most h_max = 0.5 s: joint")
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "task.yaml"]
 

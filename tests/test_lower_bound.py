@@ -160,3 +160,46 @@ def test_the_bound_is_the_longest_chain_of_the_documented_links(steps, v, a, jer
         bound = time_lower_bound(via, limits)
     assert bound == pytest.approx(_longest_chain(via, limits, 3), rel=1e-12, abs=1e-12)
     assert bound <= _longest_chain(via, limits, None) * (1 + 1e-12) + 1e-12
+
+
+@settings(max_examples=40, deadline=None)
+@given(arrays(np.int8, st.tuples(st.integers(2, 12), st.integers(1, 3)), elements=st.integers(-2, 2)),
+       arrays(float, 3, elements=st.floats(0.3, 3.0)), arrays(float, 3, elements=st.floats(0.3, 3.0)),
+       arrays(float, 3, elements=st.floats(0.1, 10.0)))
+def test_pair_bounds_are_the_documented_links_of_each_joint_at_the_given_indices(steps, v, a, jerk):
+    """Each pair's bound is ``_link_time``'s w(i, k) of each joint on the merged via-points; the pairs
+    are every one from the first, every one to the last and those at most ``WINDOW`` (cut to 3) apart,
+    named by their given indices: the last of a run of equal neighbours for i, the first for k."""
+    joints = steps.shape[1]
+    via = np.cumsum(steps.astype(float) * 0.25, axis=0)  # zero steps: runs of equal neighbours
+    limits = JointLimits.create(joints, velocity=v[:joints], acceleration=a[:joints], jerk=jerk[:joints])
+    with patch.object(lower_bound, "WINDOW", 3):
+        pairs, bounds = lower_bound.pair_lower_bounds(via, limits)
+    kept = np.flatnonzero(np.concatenate(([True], np.any(np.diff(via, axis=0) != 0, axis=1))))
+    merged, n = via[kept], len(kept)
+    run = np.cumsum(np.isin(np.arange(len(via)), kept)) - 1  # each given via-point's merged index
+    expected = {(i, k) for i in range(n) for k in range(i + 1, n) if i == 0 or k == n - 1 or k - i <= 3}
+    assert len(pairs) == len(bounds) >= len(expected)
+    seen = set()
+    for (first, last), bound in zip(pairs, bounds):
+        i, k = run[first], run[last]
+        assert first == np.flatnonzero(run == i)[-1] and last == np.flatnonzero(run == k)[0]
+        seen.add((i, k))
+        for j in range(joints):
+            assert bound[j] == pytest.approx(_link_time(merged[:, j], i, k, n, v[j], a[j], jerk[j]), rel=1e-12,
+                                             abs=1e-15)
+    assert seen == expected
+
+
+@pytest.mark.parametrize("family", ["cubic", "hybrid", "quintic", "hermite7"])
+def test_no_feasible_trajectory_passes_two_via_points_faster_than_their_pair_bound(family):
+    """A lower bound between any two via-points, for every family: a planned trajectory's via times."""
+    rng = np.random.default_rng(5)
+    via = np.cumsum(rng.uniform(-1, 1, (7, 2)), axis=0)
+    limits = JointLimits.create(2, velocity=[1.0, 0.7], acceleration=[2.0, 1.0], jerk=[8.0, 5.0])
+    problem = TimingProblem(via, family, limits)
+    result = optimize(problem, "nlp")
+    times = problem.trajectory(result.durations, result.knot_states).via_times
+    pairs, bounds = lower_bound.pair_lower_bounds(via, limits)
+    assert result.feasible and len({(i, k) for i, k in pairs}) == 7 * 6 // 2  # every pair: within the window
+    assert np.all(times[pairs[:, 1]] - times[pairs[:, 0]] >= bounds.max(axis=1) * (1 - 1e-9))

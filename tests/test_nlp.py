@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from conftest import clipped_walk
-from planner import JointLimits, get_family, kinematic_figures, paper
+from planner import InfeasibleError, JointLimits, get_family, kinematic_figures, paper
 from planner.timing import TimingProblem, optimize
 from planner.timing.formulations import FORMULATIONS, HYBRID_END, HYBRID_END_JERK, Scales
 from planner.timing.nlp import TimingNLP, cubic_certificate, quadratic_certificate, touch_certificate
@@ -99,10 +99,15 @@ def random_problems(draw):
     if draw(st.booleans()):
         low = float(rng.uniform(0.05, 1.0))
         bounds = (low, low * float(rng.uniform(1.5, 20.0)))
-    try:
-        return TimingProblem(via, family, limits, bounds=bounds)
-    except Exception:  # noqa: BLE001 - an infeasible h_max is a valid draw; retry another
-        return TimingProblem(via, family, limits)
+    if bounds is not None:  # kept where a timing within them is known to meet the limits: all at h_max
+        try:
+            problem = TimingProblem(via, family, limits, bounds=bounds)
+        except InfeasibleError:
+            pass
+        else:
+            if problem.evaluate_durations(np.full((1, problem.segment_count), bounds[1])).feasible[0]:
+                return problem
+    return TimingProblem(via, family, limits)
 
 
 @given(random_problems())

@@ -388,9 +388,10 @@ def test_a_family_with_free_states_outside_the_duration_bounds_names_the_bound_a
     task = planner.make_task(joints_deg=[[0, 0], [40, -20], [90, 10]],
                              limits={"velocity_deg_s": [60, 60], "acceleration_deg_s2": [120, 120],
                                      "jerk_deg_s3": [600, 600]},
-                             trajectory={"family": "hermite7"}, optimizer={"bounds_s": [0.5, 0.5]})
-    with pytest.raises(InfeasibleError, match=r"within optimizer.bounds_s = \[0.5, 0.5\] s: meeting the limits takes "
-                                              r"segment \d [0-9.]+ s, above h_max = 0.5 s, with joint joint\d's "
+                             trajectory={"family": "hermite7"}, optimizer={"bounds_s": [1.1, 1.1]})
+    # (no joint provably needs longer than 1.1 s between two via-points: pair_lower_bounds)
+    with pytest.raises(InfeasibleError, match=r"within optimizer.bounds_s = \[1.1, 1.1\] s: meeting the limits takes "
+                                              r"segment \d [0-9.]+ s, above h_max = 1.1 s, with joint joint\d's "
                                               r"(velocity|acceleration|jerk) at its limit") as caught:
         plan(task)
     error = caught.value

@@ -72,7 +72,7 @@ def _rest_to_rest(distance: np.ndarray, limits: JointLimits) -> np.ndarray:
 
 
 def _walk(values: np.ndarray, limits: JointLimits, start_at_rest: np.ndarray, end_index: np.ndarray) -> np.ndarray:
-    """(B, K) w(0, k) (module docstring), max over joints, for each of B runs of K via-point values
+    """(B, K, J) w(0, k) (module docstring) of each joint, for each of B runs of K via-point values
     (B, K, J) [rad] (w(0, 0) = 0); ``start_at_rest`` (B,): the run's first value is where the
     trajectory starts; ``end_index`` (B,): the index in the run where it ends (-1: not in it)."""
     batch, count, joints = values.shape
@@ -82,7 +82,7 @@ def _walk(values: np.ndarray, limits: JointLimits, start_at_rest: np.ndarray, en
     done = np.zeros((batch, joints))      # time of the pieces before the anchor [s]
     direction = np.zeros((batch, joints))
     previous = values[:, 0].copy()
-    bounds = np.zeros((batch, count))
+    bounds = np.zeros((batch, count, joints))
     for k in range(1, count):
         step = values[:, k] - previous
         moving = step != 0
@@ -100,30 +100,79 @@ def _walk(values: np.ndarray, limits: JointLimits, start_at_rest: np.ndarray, en
         last = np.where(stopped, np.where(at_rest, _turn_to_turn(piece, limits), _passing_to_stop(piece, limits)),
                         np.where(rest & at_rest, _rest_to_rest(piece, limits),
                                  np.where(rest | at_rest, _passing_to_stop(piece, limits), piece / limits.velocity)))
-        bounds[:, k] = (done + last).max(axis=1) if joints else 0.0
+        bounds[:, k] = done + last
     return bounds
+
+
+def _distinct(via_points: np.ndarray, limits: JointLimits) -> tuple[np.ndarray, np.ndarray]:
+    """The via-points (n', J) with equal neighbours merged, and (n,) which of the given ones are kept.
+
+    Raises:
+        InputError: via-points not finite (n, J), or limits not a JointLimits for J joints.
+    """
+    values = finite_array("via_points", via_points, 2)
+    if not isinstance(limits, JointLimits) or values.shape[1] != limits.joint_count:
+        raise InputError(f"limits must be a JointLimits for the via-points' {values.shape[1]} joints, got "
+                         f"{limits!r:.80}")
+    keep = np.concatenate(([True], np.any(np.diff(values, axis=0) != 0, axis=1)))
+    return values[keep], keep
+
+
+def _links(values: np.ndarray, limits: JointLimits) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """w of each joint (module docstring) for distinct neighbours ``values`` (n, J), n >= 2:
+    from_first (n, J) w(0, k) at k, to_last (n, J) w(i, n - 1) at i, and links (n, span, J)
+    w(i, i + d) at [i, d] where i + d <= n - 1, span = min(WINDOW, n - 1) + 1."""
+    count, last = len(values), len(values) - 1
+    whole = _walk(np.stack((values, values[::-1])), limits, np.array([True, True]), np.array([last, last]))
+    span = min(WINDOW, last) + 1
+    starts = np.arange(count)
+    windows = values[np.minimum(starts[:, None] + np.arange(span), last)]  # (n, span, J), the end repeated
+    return whole[0], whole[1][::-1], _walk(windows, limits, starts == 0, last - starts)
+
+
+def pair_lower_bounds(via_points: np.ndarray, limits: JointLimits) -> tuple[np.ndarray, np.ndarray]:
+    """Lower bounds on the time between pairs of via-points, for any trajectory that passes
+    ``via_points`` (n, J) [rad] in order from rest to rest within ``limits``' velocity, acceleration
+    and jerk: the module docstring's w(i, k) of each joint, for every pair from the first via-point,
+    every pair to the last and every pair at most ``WINDOW`` apart.
+
+    Returns:
+        pairs: (P, 2) indices (i, k), i < k, into ``via_points``: of a run of equal neighbours, the
+            last for i and the first for k (the bound holds from any pass of x_i to any later pass
+            of x_k, so for the closest two);
+        bounds: (P, J) w(i, k) of each joint [s]: t_k - t_i >= bounds[p, j] for every joint j.
+
+    Raises:
+        InputError: via-points not finite (n, J), or limits not a JointLimits for J joints.
+    """
+    values, keep = _distinct(via_points, limits)
+    if len(values) < 2:
+        return np.zeros((0, 2), dtype=int), np.zeros((0, values.shape[1]))
+    firsts = np.flatnonzero(keep)  # each run's first index among the given via-points
+    lasts = np.append(firsts[1:] - 1, len(keep) - 1)
+    from_first, to_last, links = _links(values, limits)
+    last = len(values) - 1
+    i, d = np.nonzero((np.arange(links.shape[1]) >= 1) & (np.arange(len(values))[:, None] + np.arange(links.shape[1])
+                                                          <= last))
+    others = np.arange(1, last + 1)
+    pairs = np.concatenate((np.stack((np.zeros_like(others), others), axis=1),
+                            np.stack((others - 1, np.full_like(others, last)), axis=1),
+                            np.stack((i, i + d), axis=1)))
+    bounds = np.concatenate((from_first[1:], to_last[:-1], links[i, d]))
+    return np.stack((lasts[pairs[:, 0]], firsts[pairs[:, 1]]), axis=1), bounds
 
 
 def time_lower_bound(via_points: np.ndarray, limits: JointLimits) -> float:
     """A lower bound [s] on the total time of any trajectory, of any family or none, that passes
     ``via_points`` (n, J) [rad] in order from rest to rest within ``limits``' velocity,
     acceleration and jerk (module docstring); ranges and duration bounds are not used."""
-    values = finite_array("via_points", via_points, 2)
-    if not isinstance(limits, JointLimits) or values.shape[1] != limits.joint_count:
-        raise InputError(f"limits must be a JointLimits for the via-points' {values.shape[1]} joints, got "
-                         f"{limits!r:.80}")
-    keep = np.concatenate(([True], np.any(np.diff(values, axis=0) != 0, axis=1)))
-    values = values[keep]
+    values, _ = _distinct(via_points, limits)
     count = len(values)
     if count < 2:
         return 0.0
     last = count - 1
-    whole = _walk(np.stack((values, values[::-1])), limits, np.array([True, True]), np.array([last, last]))
-    from_first, to_last = whole[0], whole[1][::-1]  # w(0, k) at k; w(i, n - 1) at i
-    span = min(WINDOW, last) + 1
-    starts = np.arange(count)
-    windows = values[np.minimum(starts[:, None] + np.arange(span), last)]  # (n, span, J), the end repeated
-    links = _walk(windows, limits, starts == 0, last - starts)  # links[i, d] = w(i, i + d) where i + d <= last
+    from_first, to_last, links = (w.max(axis=-1, initial=0.0) for w in _links(values, limits))
+    span = links.shape[1]
     longest = from_first.copy()  # the chains of one link from the first via-point; w(0, 0) = 0
     for i in range(last):
         reach = min(span, count - i)

@@ -53,6 +53,7 @@ from ..limits import (
 )
 from ..splines import FAMILIES, PiecewisePolynomial, SplineFamily, get_family, powers
 from ..validate import DURATION_BOUND_RANGE, finite_array, positive_durations
+from .lower_bound import pair_lower_bounds
 
 OBJECTIVES = ("time", "time-jerk")
 #: Consecutive via-points closer than this in every joint [rad] are one via-point.
@@ -104,8 +105,8 @@ class TimingProblem:
 
     Raises:
         InputError: malformed via-points (or all equal), bounds, objective or weights.
-        InfeasibleError: a via-point outside its joint's range, or a limit
-            violated even with every duration at h_max.
+        InfeasibleError: a via-point outside its joint's range, or bounds with which no timing
+            meets the limits, where that is proven (``_check_upper_bound_feasible``).
     """
 
     def __init__(self, via_points, family: SplineFamily | str, limits: JointLimits, *,
@@ -151,8 +152,8 @@ class TimingProblem:
         self._check_via_points_in_range(limits)
         #: The limits, each position range widened to hold the via-points within tolerance of it.
         self.limits = limits.covering(self.via_points)
-        if self.bounds is not None and not self.family.free_states:  # free via-point states may meet the limits
-            self._check_upper_bound_feasible()  # where the family's fixed rule, all this check can build, does not
+        if self.bounds is not None:
+            self._check_upper_bound_feasible()
 
     # ------------------------------------------------------------------ set-up checks
 
@@ -185,18 +186,43 @@ class TimingProblem:
                                   f"{limit}", violation=outside)
 
     def _check_upper_bound_feasible(self) -> None:
+        """Refuse bounds no timing within can meet the limits with, where that is proven:
+
+        * every duration is h_max (h_floor = h_max) and the family's fixed rule then breaks a limit;
+        * some joint needs longer between two via-points than the segments between them last at
+          h_max, whatever the family (``pair_lower_bounds``: a lower bound for any trajectory).
+
+        Otherwise the optimizers search: durations all at h_max are not the least demanding
+        timing of every spline (shortening a segment can lower a neighbour's jerk).
+        """
         assert self.bounds is not None
-        _, ratios, _ = self._figures(np.full((1, self.segment_count), self.bounds[1]))
-        ratios = ratios[0]
-        if ratio_exceeded(ratios).any():
-            d, j = (int(i) for i in np.unravel_index(np.argmax(ratios), ratios.shape))
-            limit = float(self.limits.magnitudes[d, j])
-            excess = Violation(self.limits.names[j], j, QUANTITIES[d], d + 1, float(ratios[d, j]) * limit, limit)
+        h_max = self.bounds[1]
+        if self.duration_floor >= h_max and not self.family.free_states:
+            _, ratios, _ = self._figures(np.full((1, self.segment_count), h_max))
+            ratios = ratios[0]
+            if ratio_exceeded(ratios).any():
+                d, j = (int(i) for i in np.unravel_index(np.argmax(ratios), ratios.shape))
+                limit = float(self.limits.magnitudes[d, j])
+                excess = Violation(self.limits.names[j], j, QUANTITIES[d], d + 1, float(ratios[d, j]) * limit, limit)
+                raise InfeasibleError(
+                    f"infeasible with every duration at h_max = {h_max:g} s: joint {excess.joint} "
+                    f"{excess.quantity} reaches {in_degrees(excess.value, d + 1)}, limit {in_degrees(limit, d + 1)} "
+                    f"({ratios[d, j]:.10g} times it)",
+                    violation=excess)
+        pairs, needed = pair_lower_bounds(self.via_points, self.limits)
+        knots = self.family.via_knots(len(self.via_points))
+        allowed = (knots[pairs[:, 1]] - knots[pairs[:, 0]]) * h_max  # (P,) the longest time between them [s]
+        excess = needed / allowed[:, None]
+        if excess.size and excess.max() > 1 + FEASIBILITY_TOLERANCE:
+            p, j = (int(i) for i in np.unravel_index(np.argmax(excess), excess.shape))
+            first, last = (int(np.flatnonzero(self.via_index == k)[side]) for k, side in zip(pairs[p], (-1, 0)))
+            segments = int(knots[pairs[p, 1]] - knots[pairs[p, 0]])
             raise InfeasibleError(
-                f"infeasible even with every duration at h_max = {self.bounds[1]:g} s: joint {excess.joint} "
-                f"{excess.quantity} reaches {in_degrees(excess.value, d + 1)}, limit {in_degrees(limit, d + 1)} "
-                f"({ratios[d, j]:.10g} times it)",
-                violation=excess)
+                f"infeasible with durations of at most h_max = {h_max:g} s: joint {self.limits.names[j]} takes at "
+                f"least {needed[p, j]:.6g} s from via-point {first} to via-point {last} within its velocity, "
+                f"acceleration and jerk limits, and the {segments} segment{'s' if segments > 1 else ''} between "
+                f"them {'last' if segments > 1 else 'lasts'} at most {allowed[p]:.6g} s",
+                joint=j, quantity="duration", value=float(needed[p, j]), limit=float(allowed[p]))
 
     # ------------------------------------------------------------------ search space
 
