@@ -26,7 +26,7 @@ import signal
 import time
 from contextlib import contextmanager
 from multiprocessing.connection import wait
-from typing import Callable, Iterator, Sequence, TypeVar
+from typing import Any, Callable, Iterator, Sequence, TypeVar
 
 from .interrupts import check as check_interrupted
 from .interrupts import deferred
@@ -59,55 +59,119 @@ def map_forked(function: Callable[[Item], Result], items: Sequence[Item], worker
     child. ``workers`` defaults to ``core_count()``; 1, one item, or no ``fork``
     on this platform runs everything here.
     """
-    results = _map(function, items, workers, None)
+    results = _map(function, items, workers)
     return [results[i] for i in range(len(items))]
 
 
-def map_forked_until(function: Callable[[Item], Result], items: Sequence[Item], workers: int | None,
-                     deadline: float) -> list[Result | None]:
-    """``map_forked`` that stops at ``deadline`` (a ``time.monotonic()`` time [s]): every share runs in
-    a child and the caller only waits; children not done by then are ended and their items' results
-    are None (a library call cannot be stopped halfway in the calling process; a child can). Without
-    ``fork``, everything runs here and the deadline is not enforced."""
-    results = _map(function, items, workers, deadline)
+def map_forked_until(function: Callable[[Item, Callable[[Result], None]], Result], items: Sequence[Item],
+                     workers: int | None, deadline: float) -> list[Result | None]:
+    """``[function(item, report) for item in items]`` over ``workers`` processes, stopped at ``deadline``
+    (a ``time.monotonic()`` time [s]): every share runs in a child and the caller only waits; children not
+    done by then are ended (a library call cannot be stopped halfway in the calling process; a child can).
+
+    ``report(partial)``, which ``function`` may call as it goes, sends a result it could already
+    return (the best so far): an item not done by the deadline gets its last one, or None if it sent
+    none. Without ``fork``, everything runs here, ``report`` does nothing and the deadline is not
+    enforced.
+    """
+    workers = min(workers or core_count(), len(items))
+    context = _fork_context()
+    if context is None:
+        return [function(item, _ignore) for item in items]
+    results: dict[int, Result] = {}
+    children: list = []
+    try:
+        waiting = {}
+        for w in range(workers):
+            share = list(range(w, len(items), workers))
+            receive, send = context.Pipe(duplex=False)
+            process = context.Process(target=_serve_reporting, args=(function, items, share, send, os.getpid()),
+                                      daemon=True)
+            with _forking():  # started and listed in one step: the cleanup below ends every child
+                process.start()
+                children.append((process, receive))
+            send.close()
+            waiting[receive] = (set(share), process)
+        while waiting and (left := deadline - time.monotonic()) > 0:
+            for ready in wait(list(waiting), timeout=left):
+                unfinished, process = waiting[ready]
+                done, index, payload = _message(ready, process)
+                results[index] = payload
+                if done:
+                    unfinished.discard(index)
+                    if not unfinished:
+                        del waiting[ready]
+    finally:
+        _end(children)
     return [results.get(i) for i in range(len(items))]
 
 
-def _map(function: Callable[[Item], Result], items: Sequence[Item], workers: int | None,
-         deadline: float | None) -> dict[int, Result]:
-    """The results by item index (``map_forked``, ``map_forked_until``: those done by the deadline)."""
+def _message(receive, process) -> tuple[bool, int, Any]:
+    """The next ``(done, index, result)`` of a ``map_forked_until`` child (``_serve_reporting``), or its
+    exception raised here."""
+    try:
+        done, index, payload = receive.recv()
+    except EOFError:
+        raise _lost(process, "without a result") from None
+    if index is None:  # the child failed
+        raise payload
+    return done, index, payload
+
+
+def _ignore(partial) -> None:
+    """A ``report`` that keeps nothing (``map_forked_until`` without ``fork``)."""
+
+
+def _serve_reporting(function: Callable, items: Sequence, share: list[int], send, parent: int) -> None:
+    """A ``map_forked_until`` child's work: per item, ``(False, index, partial)`` for each ``report`` and
+    ``(True, index, result)`` at its end, or ``(True, None, exception)`` at the first failure, down ``send``."""
+    _become_child(parent)
+    try:
+        for index in share:
+            def report(partial, index=index) -> None:
+                send.send((False, index, partial))
+            send.send((True, index, function(items[index], report)))
+    except BaseException as exc:  # noqa: BLE001 - every failure goes to the parent
+        try:
+            send.send((True, None, _crossing(exc)))
+        except OSError:  # the parent has stopped listening: nobody needs the error
+            pass
+    send.close()
+
+
+def _map(function: Callable[[Item], Result], items: Sequence[Item], workers: int | None) -> dict[int, Result]:
+    """The results of ``map_forked`` by item index."""
     workers = min(workers or core_count(), len(items))
     context = _fork_context()
-    if context is None or (workers <= 1 and deadline is None):
+    if context is None or workers <= 1:
         return {i: function(item) for i, item in enumerate(items)}
     shares = [list(range(w, len(items), workers)) for w in range(workers)]
     children: list = []
     results: dict[int, Result] = {}
     try:
-        for share in shares[1:] if deadline is None else shares:
+        for share in shares[1:]:
             receive, send = context.Pipe(duplex=False)
             process = context.Process(target=_serve, args=(function, [items[i] for i in share], send, os.getpid()),
                                       daemon=True)
             with _forking():  # started and listed in one step: the cleanup below ends every child
                 process.start()
-                children.append((share, process, receive))
+                children.append((process, receive))
             send.close()
-        if deadline is None:
-            results.update({i: function(items[i]) for i in shares[0]})
-            for share, process, receive in children:
-                _collect(receive, share, process, results)
-        else:
-            waiting = {receive: (share, process) for share, process, receive in children}
-            while waiting and (left := deadline - time.monotonic()) > 0:
-                for ready in wait(list(waiting), timeout=left):
-                    _collect(ready, *waiting.pop(ready), results)
+        results.update({i: function(items[i]) for i in shares[0]})
+        for share, (process, receive) in zip(shares[1:], children):
+            _collect(receive, share, process, results)
     finally:
-        for _, process, receive in children:
-            receive.close()
-            if process.is_alive():
-                process.terminate()
-            process.join()
+        _end(children)
     return results
+
+
+def _end(children: list) -> None:
+    """Close each (process, pipe end) pair's pipe and end the process if it still runs."""
+    for process, receive in children:
+        receive.close()
+        if process.is_alive():
+            process.terminate()
+        process.join()
 
 
 #: The signals the command line handles (``cli._interrupt``), held back while a child is forked
@@ -193,12 +257,17 @@ def _run_and_send(function: Callable, items: list, send) -> None:
     try:
         message = (False, [function(item) for item in items])
     except BaseException as exc:  # noqa: BLE001 - every failure goes to the parent
-        message = (True, exc if _picklable(exc) else RuntimeError(f"{type(exc).__name__}: {exc}"))
+        message = (True, _crossing(exc))
     try:
         send.send(message)
         send.close()
     except OSError:  # the parent has stopped listening: nobody needs the result
         pass
+
+
+def _crossing(exc: BaseException) -> BaseException:
+    """``exc`` itself if it survives the pipe whole, else a ``RuntimeError`` naming it."""
+    return exc if _picklable(exc) else RuntimeError(f"{type(exc).__name__}: {exc}")
 
 
 def _picklable(exc: BaseException) -> bool:

@@ -338,7 +338,7 @@ def retimes_in_nlp(optimizer: dict) -> bool:
 
 
 def check_sample_count(task: Task, total_time: float, *, lower_bound: bool = False,
-                       slowed: RobotLimitOutcome | None = None) -> None:
+                       slowed: RobotLimitOutcome | None = None, out_of_time: bool = False) -> None:
     """Refuse a trajectory whose outputs at ``trajectory.sample_rate_hz`` would exceed ``MAX_SAMPLES`` samples.
 
     Args:
@@ -346,6 +346,8 @@ def check_sample_count(task: Task, total_time: float, *, lower_bound: bool = Fal
             so that a hopeless task is refused before it is timed.
         slowed: how the robot-aware limits slowed the trajectory down, if they did: then the error
             names the limit that set the slow-down.
+        out_of_time: the time limit ended the timing: then the error says it may have left the
+            trajectory longer than the limits need.
 
     Raises:
         TaskError: naming ``trajectory.sample_rate_hz``, the duration and the sample count (or the
@@ -357,6 +359,12 @@ def check_sample_count(task: Task, total_time: float, *, lower_bound: bool = Fal
     what = "at least" if lower_bound else "the"
     samples = (f"{task.sample_rate_hz:g} Hz over {what} {total_time:.6g} s of trajectory makes {count:.3g} samples "
                f"per output, above the cap of {MAX_SAMPLES:,}")
+    if out_of_time and (slowed is None or total_time <= slowed.kinematic_total_s):
+        raise TaskError("trajectory.sample_rate_hz", f"{samples}; the time limit of {task.optimizer['time_limit']:g} "
+                                                     f"s (optimizer.time_limit_s) stopped the timing before it "
+                                                     f"converged, which may have left the trajectory longer than the "
+                                                     f"limits need: raise the time limit, lower the rate, or check "
+                                                     f"the limits and duration bounds")
     if slowed is None or total_time <= slowed.kinematic_total_s:
         raise TaskError("trajectory.sample_rate_hz", f"{samples}; lower the rate or check the limits and duration "
                                                      f"bounds (they make the trajectory this long)")
@@ -710,7 +718,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         elif met.slow_down > 1:
             progress.note(f"slowed down {met.slow_down:.6g} times to meet the torque and tool-speed limits")
         timings["robot_limits"] = time.perf_counter() - start
-    check_sample_count(task, trajectory.total_time, slowed=met)
+    check_sample_count(task, trajectory.total_time, slowed=met, out_of_time=result.out_of_time)
     if figures is None:
         figures = kinematic_figures(trajectory)
     exceeded = max(figures.violations(limits), key=lambda violation: violation.ratio, default=None)

@@ -252,10 +252,18 @@ def test_cut_families_solve_their_starts_side_by_side_from_few_segments(monkeypa
         [(s.label, s.objective, s.iterations) for s in concurrent.starts]
 
 
-def sleep_then_pid(seconds):
+def sleep_then_pid(seconds, report):
     import time
     time.sleep(seconds)
     return os.getpid()
+
+
+def report_then_sleep(seconds, report):
+    import time
+    report(("first", os.getpid()))
+    report(("second", os.getpid()))
+    time.sleep(seconds)
+    return ("done", os.getpid())
 
 
 def test_a_deadline_ends_the_children_still_working():
@@ -274,6 +282,17 @@ def test_a_deadline_ends_the_children_still_working():
     assert all(pid != os.getpid() for pid in map_forked_until(sleep_then_pid, [0.0, 0.0], 2, time.monotonic() + 30))
 
 
+def test_a_deadline_keeps_the_last_result_each_unfinished_child_reported():
+    """What a child reports as it goes stands in for its result if the deadline ends it first; a
+    finished item's own result replaces its reports."""
+    import time
+
+    from planner.concurrency import map_forked_until
+    results = map_forked_until(report_then_sleep, [60.0, 0.0, 60.0], 3, time.monotonic() + 3.0)
+    assert [r[0] for r in results] == ["second", "done", "second"]
+    assert len({r[1] for r in results}) == 3 and os.getpid() not in {r[1] for r in results}
+
+
 def test_the_time_limit_ends_nlp_starts_that_run_over(monkeypatch):
     """From CONCURRENT_SEGMENTS segments the starts run in processes; at the time limit those still
     solving are ended and reported so, and the result is the best repaired start (feasible)."""
@@ -282,7 +301,7 @@ def test_the_time_limit_ends_nlp_starts_that_run_over(monkeypatch):
     from planner import paper
     from planner.timing import TimingProblem, nlp, optimize
 
-    def endless(self, start):
+    def endless(self, start, report=None):
         time.sleep(600)
     via = np.deg2rad(np.cumsum(np.random.default_rng(3).uniform(-40, 40, (70, 6)), axis=0))
     problem = TimingProblem(via, "cubic", paper.paper_limits())
@@ -290,7 +309,8 @@ def test_the_time_limit_ends_nlp_starts_that_run_over(monkeypatch):
     started = time.monotonic()
     result = optimize(problem, "nlp", time_limit_s=2.0)
     assert time.monotonic() - started < 60
-    assert result.stop_reason == "time limit of 2 s reached" and result.feasible
+    assert result.stop_reason == ("time limit of 2 s reached; it stopped the NLP from cruise before it solved a "
+                                  "round, from stop-at-turns before it solved a round") and result.feasible
     assert problem.evaluate_durations(result.durations[None]).feasible[0]
 
 

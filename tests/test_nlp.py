@@ -707,3 +707,37 @@ def test_the_from_rest_bounds_take_only_a_total_no_better_timing_exceeds(paper_v
     assert TimingNLP(problem, feasible / 2).formulation.longest_total == np.inf
     weighted = TimingProblem(paper_via, "hermite7", limits, objective="time-jerk", weights=(1.0, 1.0))
     assert TimingNLP(weighted, feasible).formulation.longest_total == np.inf
+
+
+def test_a_time_limit_that_ends_the_nlp_keeps_each_starts_last_solved_round(monkeypatch):
+    """Each start reports its solved rounds as it goes: cut off after its second, it offers that
+    round, the same as a solve that stops there by itself (``MAX_ROUNDS`` = 2). The rounds were lost
+    and the start shape, 3 times slower, returned (sweep 15)."""
+    import time
+
+    from planner.timing import nlp
+
+    via = np.radians(np.cumsum(np.random.default_rng(4).uniform(-30, 30, (8, 2)), axis=0))
+    limits = JointLimits.create(2, velocity=np.radians([60, 60]), acceleration=np.radians([120, 120]),
+                                jerk=np.radians([600, 600]))
+    problem = TimingProblem(via, "hermite7", limits)
+    with monkeypatch.context() as patched:
+        patched.setattr(nlp, "MAX_ROUNDS", 2)
+        stopping = {start.label: start.objective for start in optimize(problem, "nlp").starts}
+    solve = nlp.TimingNLP.solve
+
+    def stalls_after_two_rounds(self, start, report=None):
+        def passing_on(outcome):
+            report(outcome)
+            if outcome.rounds == 2:
+                time.sleep(600)
+        return solve(self, start, None if report is None else passing_on)
+    monkeypatch.setattr(nlp.TimingNLP, "solve", stalls_after_two_rounds)
+    result = optimize(problem, "nlp", time_limit_s=4.0)
+    cut = {start.label: start for start in result.starts}
+    assert set(cut) == {"cruise", "stop-at-turns"} and all(start.rounds == 2 for start in cut.values())
+    assert result.stop_reason == ("time limit of 4 s reached; it stopped the NLP from cruise after 2 solved rounds, "
+                                  "from stop-at-turns after 2 solved rounds")
+    for label, start in cut.items():
+        assert start.feasible and start.objective == pytest.approx(stopping[label], rel=1e-9)
+    assert result.feasible and result.total_time == pytest.approx(min(stopping.values()), rel=1e-9)

@@ -411,7 +411,7 @@ def test_starts_side_by_side_under_a_time_limit_keep_what_was_solved_and_mark_wh
     assert nlp._concurrent(problem)
     start = _uniform_start(problem)
 
-    def solve(self, durations):
+    def solve(self, durations, report=None):
         if durations[0] > start[0]:
             time.sleep(600)
         return nlp.NLPOutcome(np.asarray(durations) / 2, 7, 2, "Solve_Succeeded", 3)

@@ -511,3 +511,27 @@ def test_ranges_the_nlp_would_end_a_hair_outside_plan():
     result = plan(task)
     assert result.feasible and result.trajectory.total_time == pytest.approx(7.99017, abs=1e-4)
     assert_plan_holds(result)
+
+
+def test_over_the_sample_cap_after_the_time_limit_stopped_the_timing_the_error_says_so(monkeypatch):
+    """A hermite7 run the time limit stops early keeps a timing far longer than its optimum; refused by
+    the sample cap, the error blamed only the rate, limits and bounds (sweep 15)."""
+    import planner.pipeline as pipeline
+
+    def task(time_limit_s):
+        return planner.make_task(joints_deg=[[0, 0], [40, -20], [90, 10], [30, 30], [-20, 5]],
+                                 limits={"velocity_deg_s": [60, 60], "acceleration_deg_s2": [120, 120],
+                                         "jerk_deg_s3": [600, 600]},
+                                 trajectory={"family": "hermite7", "sample_rate_hz": 10},
+                                 optimizer={"time_limit_s": time_limit_s})
+    cut = plan(task(1e-9))
+    assert cut.optimization.out_of_time
+    converged = plan(task(120))
+    assert not converged.optimization.out_of_time and converged.trajectory.total_time < cut.trajectory.total_time
+    monkeypatch.setattr(pipeline, "MAX_SAMPLES", int(10 * (cut.trajectory.total_time + converged.trajectory.total_time)
+                                                     / 2))  # between the two
+    with pytest.raises(TaskError, match=r"^trajectory.sample_rate_hz: 10 Hz over the [\d.]+ s of trajectory makes "
+                                        r"[\d.]+ samples per output, above the cap of [\d,]+; the time limit of "
+                                        r"1e-09 s \(optimizer.time_limit_s\) stopped the timing before it converged"):
+        plan(task(1e-9))
+    plan(task(120))  # within the cap

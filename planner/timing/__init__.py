@@ -12,9 +12,18 @@ from ..errors import InputError, SettingError, shown
 from ..validate import MAX_SEED, Range, positive_finite, ranged
 from .baselines import multistart_slsqp, particle_swarm, scipy_differential_evolution
 from .cuckoo import cuckoo_search
-from .nlp import nlp_refine, nlp_settings
+from .nlp import OUT_OF_TIME, nlp_refine, nlp_settings
 from .problem import Evaluation, TimingProblem
-from .result import SOLVED, OptimizationResult, OutOfTime, Progress, SearchTracker, StartReport, time_limit
+from .result import (
+    SOLVED,
+    TIME_LIMIT_REASON,
+    OptimizationResult,
+    OutOfTime,
+    Progress,
+    SearchTracker,
+    StartReport,
+    time_limit,
+)
 from .starts import start_shapes
 
 #: The start ``shape_starts`` adds where no shape's NLP solved (``result.SOLVED``): equal durations.
@@ -190,8 +199,20 @@ def optimize(problem: TimingProblem, algorithm: str = "default", *, time_limit_s
             return optimizer(problem, **settings)
         except OutOfTime as stop:
             requested = {key: value for key, value in settings.items() if key not in NOT_SETTINGS}
-            return stop.tracker.result(algorithm, f"time limit of {time_limit_s:g} s reached", settings.get("seed"),
+            return stop.tracker.result(algorithm, _stopped(time_limit_s, stop.tracker.starts), settings.get("seed"),
                                        requested)
+
+
+def _stopped(time_limit_s: float | None, starts: list[StartReport]) -> str:
+    """The stop reason of a run the time limit ended, naming the NLP starts it cut off and the rounds
+    each had solved (its last one is what the run kept of it)."""
+    reason = f"{TIME_LIMIT_REASON} {time_limit_s:g} s reached"
+    cut = [start for start in starts if start.status == OUT_OF_TIME]
+    if not cut:
+        return reason
+    return reason + "; it stopped the NLP " + ", ".join(
+        f"from {start.label} " + (f"after {start.rounds} solved round{'' if start.rounds == 1 else 's'}"
+                                  if start.rounds else "before it solved a round") for start in cut)
 
 
 __all__ = ["NOT_SETTINGS", "OPTIMIZERS", "SETTING_RANGES", "Evaluation", "OptimizationResult", "StartReport",

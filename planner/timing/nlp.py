@@ -76,7 +76,7 @@ import time
 from dataclasses import dataclass, replace
 from math import factorial
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -289,8 +289,10 @@ class TimingNLP:
         assert self._blocks is not None
         return self._blocks
 
-    def solve(self, start: np.ndarray) -> NLPOutcome:
-        """Solve from durations ``start`` (S,) [s], adding certificates round by round."""
+    def solve(self, start: np.ndarray, report: Callable[[NLPOutcome], None] | None = None) -> NLPOutcome:
+        """Solve from durations ``start`` (S,) [s], adding certificates round by round; ``report``, if
+        given, is called with each solved round's outcome (status ``OUT_OF_TIME``: what the solve
+        returns if the time limit ends it there, ``_solve_all``)."""
         problem = self.problem
         h = np.asarray(start, dtype=float)
         states = None
@@ -331,6 +333,8 @@ class TimingNLP:
             states = self.formulation.via_point_states(core[problem.segment_count:])
             batch_states = None if states is None else states[None]
             coefficients = problem.coefficients(h[None], batch_states)[0]
+            if report is not None:
+                report(NLPOutcome(h, iterations, rounds, OUT_OF_TIME, len(certificates), states))
             settled = True
             if frozen is not None:  # the robot model was frozen at the previous round's trajectory
                 assert self.robot is not None
@@ -755,20 +759,19 @@ def nlp_refine(problem: TimingProblem, starts: dict[str, np.ndarray], tracker: S
     repaired = tracker.evaluate(np.array([starts[label] for label in labels]))
     nlp = TimingNLP(problem, repaired.durations[int(np.argmin(repaired.objective))])
     nlp.blocks  # builds the program without certificates once, before any process forks
-    solved = [_report(tracker, label, outcome)
-              for label, outcome in zip(labels, _solve_all(nlp, list(repaired.durations)))]
+    solved = _report_all(tracker, labels, _solve_all(nlp, list(repaired.durations)))
     kept = [(durations, report.objective) for durations, report in solved
             if report.status in SOLVED and report.feasible]
     objectives = [objective for _, objective in kept]
     start = recombined([durations for durations, _ in kept]) \
         if kept and max(objectives) > min(objectives) * (1 + AGREEMENT) else None  # agreeing starts: nothing to gain
     if start is not None:
-        _report(tracker, "recombined", _solve_all(nlp, list(tracker.evaluate(start[None]).durations))[0])
+        _report_all(tracker, ["recombined"], _solve_all(nlp, list(tracker.evaluate(start[None]).durations)))
     if not kept and problem.limits.has_position_range:
         inside = _range_feasible_start(problem, tracker)
         if inside is not None:
             outside, _ = min(solved, key=lambda item: item[1].objective)
-            _report(tracker, "inside the ranges", _solve_all(nlp, [inside])[0])
+            _report_all(tracker, ["inside the ranges"], _solve_all(nlp, [inside]))
             _towards(problem, tracker, outside, inside)
 
 
@@ -807,8 +810,8 @@ def _towards(problem: TimingProblem, tracker: SearchTracker, outside: np.ndarray
 
 def _solve_all(nlp: TimingNLP, starts: list[np.ndarray]) -> list[NLPOutcome]:
     """``nlp.solve`` from each start (S,) [s]: where they run side by side (``_concurrent``), one process
-    each, ended at the time limit (an outcome ``OUT_OF_TIME`` at its start; IPOPT's own limit is checked
-    only between iterations); otherwise one after another here."""
+    each, ended at the time limit (IPOPT's own limit is checked only between iterations) with an outcome
+    ``OUT_OF_TIME`` at the last round it solved, or at its start; otherwise one after another here."""
     processes, remaining = _processes(nlp.problem, len(starts)), remaining_time()
     if remaining is None or not _concurrent(nlp.problem):
         return map_forked(nlp.solve, starts, processes)
@@ -823,9 +826,11 @@ def _solve_all(nlp: TimingNLP, starts: list[np.ndarray]) -> list[NLPOutcome]:
 
 def _report(tracker: SearchTracker, label: str, outcome: NLPOutcome) -> tuple[np.ndarray, StartReport]:
     """Repair and offer ``outcome`` to ``tracker``, log it and add its ``StartReport``; returns the
-    repaired durations (S,) [s] and the report."""
-    result = (tracker.evaluate(outcome.durations[None]) if outcome.states is None
-              else tracker.evaluate_states(outcome.durations[None], outcome.states[None]))
+    repaired durations (S,) [s] and the report. The time limit is not checked (``_report_all``)."""
+    problem = tracker.problem
+    result = (problem.evaluate(outcome.durations[None]) if outcome.states is None
+              else problem.evaluate_states(outcome.durations[None], outcome.states[None]))
+    tracker.offer(result)
     report = StartReport(label, float(result.objective[0]), bool(result.feasible[0]), outcome.iterations,
                          outcome.rounds, outcome.status, outcome.certificates)
     tracker.starts.append(report)
@@ -834,6 +839,15 @@ def _report(tracker: SearchTracker, label: str, outcome: NLPOutcome) -> tuple[np
         report.objective, "feasible" if report.feasible else "INFEASIBLE", report.status, report.iterations,
         report.rounds, report.certificates)
     return result.durations[0], report
+
+
+def _report_all(tracker: SearchTracker, labels: list[str], outcomes: list[NLPOutcome]) -> list[tuple[np.ndarray,
+                                                                                                   StartReport]]:
+    """``_report`` each of ``outcomes`` under its label, then stop if the time limit has passed: every
+    solve the limit ended has offered its last solved round first."""
+    reported = [_report(tracker, label, outcome) for label, outcome in zip(labels, outcomes)]
+    tracker.check_time()
+    return reported
 
 
 def robot_refine(problem: TimingProblem, robot: RobotConstraints,

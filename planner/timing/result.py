@@ -88,6 +88,11 @@ class OptimizationResult(ReadOnlyArrays):
         freeze_arrays(self)
 
     @property
+    def out_of_time(self) -> bool:
+        """The time limit ended the run: the result is the best timing found by then."""
+        return self.stop_reason.startswith(TIME_LIMIT_REASON)
+
+    @property
     def max_ratio(self) -> float:
         """The largest constraint ratio r_{j,d} of the result."""
         return float(self.ratios.max())
@@ -107,6 +112,8 @@ class OptimizationResult(ReadOnlyArrays):
         return sum(s.iterations for s in self.starts)
 
 
+#: How the stop reason of a run the time limit ended begins (``OptimizationResult.out_of_time``).
+TIME_LIMIT_REASON = "time limit of"
 #: Monotonic time [s] by which the running optimization must stop, or None (``time_limit``).
 _deadline: ContextVar[float | None] = ContextVar("timing_deadline", default=None)
 
@@ -167,23 +174,27 @@ class SearchTracker:
 
     def _track(self, evaluation: Evaluation) -> Evaluation:
         """Offer ``evaluation``'s candidates as the best, count them and stop at the time limit."""
-        self._offer(evaluation)
-        self.count(len(evaluation.objective))
+        self.offer(evaluation)
+        self.check_time()
         return evaluation
 
     def count(self, evaluations: int) -> None:
         """Count ``evaluations`` that offer no candidate (a finite-difference Jacobian's points) and stop
         at the time limit: a local solver between two offered candidates can take far longer than it."""
         self.evaluations += evaluations
-        self._check_time()
+        self.check_time()
 
-    def _check_time(self) -> None:
+    def check_time(self) -> None:
+        """Stop the search (``OutOfTime``) if the time limit has passed and a best candidate exists."""
         if self.best_durations is not None and remaining_time() == 0.0:
             raise OutOfTime(self)
 
-    def _offer(self, evaluation: Evaluation) -> None:
-        """Keep the best candidate, feasible ones first: a penalised objective guides a search, but
-        an infeasible candidate with a small penalty must not displace a feasible one."""
+    def offer(self, evaluation: Evaluation) -> None:
+        """Count ``evaluation``'s candidates and keep the best, feasible ones first (a penalised objective
+        guides a search, but an infeasible candidate with a small penalty must not displace a feasible
+        one), without stopping at the time limit (``check_time``): several results of work the limit
+        ended go in before the search stops."""
+        self.evaluations += len(evaluation.objective)
         feasible = np.asarray(evaluation.feasible, dtype=bool)
         pool = np.flatnonzero(feasible) if feasible.any() else np.arange(len(feasible))
         i = int(pool[np.argmin(evaluation.objective[pool])])
@@ -199,7 +210,7 @@ class SearchTracker:
         self.history.append(self.best_objective)
         if self._progress is not None:
             self._progress(len(self.history), self._total, self.best_objective)
-        self._check_time()
+        self.check_time()
 
     def result(self, algorithm: str, stop_reason: str, seed: int | None, settings: dict) -> OptimizationResult:
         """The result for the best candidate, re-checked exactly as durations (no repair)."""
