@@ -25,7 +25,16 @@ from .dynamics import (
     meet_robot_limits,
     torque_limits,
 )
-from .errors import IKError, InfeasibleError, InputError, MissingLimitError, OutputError, PlannerError, TaskError
+from .errors import (
+    IKError,
+    InfeasibleError,
+    InputError,
+    MissingLimitError,
+    OutputError,
+    PlannerError,
+    SettingError,
+    TaskError,
+)
 from .export import coefficients_document, json_ready, write_json, write_trajectory_csv
 from .ik import IKSolution, described, pose_from_position_quaternion, solve_waypoints
 from .kinematics import KinematicFigures, Violation, continuity_breaks, kinematic_figures, via_point_misses
@@ -478,10 +487,11 @@ def _check_configuration(q: np.ndarray | None, key: str, robot: Robot) -> None:
                                         f"({side} limit {limit})")
 
 
-def _outside_bounds(problem: TimingProblem, result: OptimizationResult) -> InfeasibleError:
-    """The error for a best timing that meets every limit only outside ``optimizer.bounds_s`` (some
-    duration is outside them): it names the segment furthest outside, the bound, and the limit that
-    binds there (its largest ratio)."""
+def _outside_bounds(problem: TimingProblem, result: OptimizationResult,
+                    worst: Violation | None) -> InfeasibleError:
+    """The error for a best timing outside ``optimizer.bounds_s`` (some duration is outside them): it
+    names the segment furthest outside, the bound, and the limit that binds there (its largest ratio),
+    and ``worst``, a limit the timing still breaks (a position range), if any."""
     assert problem.bounds is not None
     low, high = problem.bounds
     h = result.durations
@@ -489,27 +499,27 @@ def _outside_bounds(problem: TimingProblem, result: OptimizationResult) -> Infea
     side, bound = ("above h_max", high) if h[k] > high else ("below h_min", low)
     d, j = (int(i) for i in np.unravel_index(int(np.argmax(result.ratios)), result.ratios.shape))
     quantity, limit = QUANTITIES[d], float(problem.limits.magnitudes[d, j])
+    also = "" if worst is None else f", and in that timing {worst}"
     return InfeasibleError(f"no feasible timing found by {result.algorithm} within optimizer.bounds_s = [{low:g}, "
                            f"{high:g}] s: meeting the limits takes segment {k} {h[k]:.4g} s, {side} = {bound:g} s, "
                            f"with joint {problem.limits.names[j]}'s {quantity} at its limit "
-                           f"{in_degrees(limit, d + 1)}; widen the bounds or raise that limit", joint=j,
+                           f"{in_degrees(limit, d + 1)}{also}; widen the bounds or raise that limit", joint=j,
                            quantity=quantity, value=float(result.ratios[d, j]) * limit, limit=limit)
 
 
 def _on_bound_hint(problem: TimingProblem, violations: list[Violation]) -> str:
     """Why a range may be left: via-points on a range bound, where the joint must stop, which the
-    families' continuity conditions fix from the durations (and cannot make 0 at many via-points at
-    once), and, for a family whose via-point states are not free, the one whose are. Empty unless a
-    position violation and such a via-point exist."""
+    family's continuity conditions fix from the durations (and cannot make 0 at many via-points at
+    once), and the family whose via-point states are free. Empty unless a position violation and
+    such a via-point exist, or for a family with free states."""
     sides = problem.limits.bound_sides(problem.given_via_points)[1:-1]
-    if not any(v.quantity == "position" for v in violations) or not sides.any():
-        return ""
+    if problem.family.free_states or not any(v.quantity == "position" for v in violations) or not sides.any():
+        return ""  # free via-point states can stop there
     k, j = np.argwhere(sides)[0]
-    free = "" if problem.family.free_states else \
-        " or set trajectory.family: hermite7, whose via-point velocities the optimizer chooses (it can stop there)"
     return (f"; {np.count_nonzero(sides)} via-point values sit on a range bound (first: via-point {k + 1}, joint "
             f"{problem.limits.names[j]}), where the joint must stop, which the {problem.family.name} spline's "
-            f"continuity conditions seldom allow at more than a few: move them inside their ranges{free}")
+            f"continuity conditions seldom allow at more than a few: move them inside their ranges or set "
+            f"trajectory.family: hermite7, whose via-point velocities the optimizer chooses (it can stop there)")
 
 
 def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
@@ -596,18 +606,21 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
                                 objective=settings["objective"], weights=settings["weights"],
                                 min_duration=task.min_segment_s)
         with time_limit(max(deadline - time.monotonic(), 0.0)):  # nested: the run's own limit cannot outlast it
-            result = optimize(problem, settings["algorithm"], seed=settings["seed"], progress=progress,
-                              time_limit_s=settings["time_limit"], **settings["settings"])
+            try:
+                result = optimize(problem, settings["algorithm"], seed=settings["seed"], progress=progress,
+                                  time_limit_s=settings["time_limit"], **settings["settings"])
+            except SettingError as exc:  # one the task's size decides (``check_population``)
+                raise TaskError(f"optimizer.{exc.setting}", exc.problem) from None
         trajectory = problem.trajectory(result.durations, result.knot_states)
         found = kinematic_figures(trajectory).violations(limits)  # the trajectory built, checked once more
         progress.note(f"{progress.label}: total time {result.total_time:.6g} s, "
                       f"{'feasible' if result.feasible and not found else 'INFEASIBLE'} ({result.wall_time_s:.2f} s)")
         if not result.feasible or found:
             worst = max(found, key=lambda violation: violation.ratio, default=None)
-            if worst is None and problem.bounds is not None and not (
+            if problem.bounds is not None and not (
                     problem.bounds[0] * (1 - 1e-12) <= result.durations.min()
                     and result.durations.max() <= problem.bounds[1] * (1 + 1e-12)):
-                raise _outside_bounds(problem, result)
+                raise _outside_bounds(problem, result, worst)  # whatever else it breaks, it breaks the bounds
             reasons = ([f"largest constraint ratio {result.max_ratio:.12g} (limit 1)"]
                        if ratio_exceeded(result.max_ratio) or worst is None else []) + \
                 ([str(worst)] if worst else [])  # a position alone leaves the ratio at 1: no word of it then

@@ -193,7 +193,9 @@ def _use_core_schema(loader: type[yaml.SafeLoader]) -> None:
     date), and only ``true``/``false`` are booleans (``yes``, ``no``, ``on``, ``off`` are text)."""
     core = {"bool": r"true|True|TRUE|false|False|FALSE",
             "int": r"[-+]?[0-9]+(_[0-9]+)*|0o[0-7]+|0x[0-9a-fA-F]+",  # 1_000 too, as in Python
-            "float": r"[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)([eE][-+]?[0-9]+)?|[-+]?\.(inf|Inf|INF)|\.(nan|NaN|NAN)",
+            # 1_000.5 and 1e1_0 too, as in Python: underscores between digits
+            "float": r"[-+]?(\.D|D(\.(D)?)?)([eE][-+]?D)?|[-+]?\.(inf|Inf|INF)|\.(nan|NaN|NAN)".replace(
+                "D", "[0-9]+(_[0-9]+)*"),
             "null": r"~|null|Null|NULL|"}
     replaced = {f"tag:yaml.org,2002:{name}" for name in (*core, "timestamp")}
     loader.yaml_implicit_resolvers = {first: [(tag, rule) for tag, rule in rules if tag not in replaced]

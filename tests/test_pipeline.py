@@ -535,3 +535,29 @@ def test_over_the_sample_cap_after_the_time_limit_stopped_the_timing_the_error_s
                                         r"1e-09 s \(optimizer.time_limit_s\) stopped the timing before it converged"):
         plan(task(1e-9))
     plan(task(120))  # within the cap
+
+
+def test_a_best_timing_outside_the_bounds_is_refused_for_the_bounds_first_and_hermite7_gets_no_on_bound_hint():
+    """Durations outside ``bounds_s`` make a timing invalid whatever else it breaks: the error named a
+    3e-7 deg position overshoot and advised moving the via-point off its range bound, which hermite7,
+    whose via-point states are free, can stop at (sweep 15)."""
+    task = planner.make_task(joints_deg=[[0, 0], [40, -20], [90, 10]],
+                             limits={"velocity_deg_s": [60, 60], "acceleration_deg_s2": [120, 120],
+                                     "jerk_deg_s3": [600, 600], "position_deg": [[-10, 95], [-20, 20]]},
+                             trajectory={"family": "hermite7"}, optimizer={"bounds_s": [1.1, 1.1]})
+    with pytest.raises(InfeasibleError, match=r"^no feasible timing found by cuckoo within optimizer.bounds_s = "
+                                              r"\[1.1, 1.1\] s: meeting the limits takes segment \d [\d.]+ s, above "
+                                              r"h_max = 1.1 s, with joint joint\d's \w+ at its limit [^;]*, and in "
+                                              r"that timing joint joint2 position -20.\d+ deg is below its lower limit "
+                                              r"-20 deg; widen the bounds or raise that limit$"):
+        plan(task)
+
+
+def test_a_population_too_large_for_the_task_is_a_task_error_naming_the_key():
+    walk = np.cumsum(np.random.default_rng(2).uniform(-20, 20, (200, 2)), axis=0)
+    task = planner.make_task(joints_deg=walk.tolist(), limits={"velocity_deg_s": [60, 60]},
+                             optimizer={"algorithm": "de", "population": 1000})
+    with pytest.raises(TaskError, match=r"^optimizer.population: 1000 makes a population of 201,000 candidates of "
+                                        r"201 durations \(40,401,000 numbers\), above the 20,000,000 a search holds: "
+                                        r"at most 495 for 201 segments$"):
+        plan(task)

@@ -143,6 +143,8 @@ def test_within_one_batch_a_feasible_candidate_is_kept_before_a_less_penalised_i
     segments = problem.segment_count
 
     class Given:  # a problem whose evaluations are given: the tracker's rule alone is under test
+        segment_count, joint_count = segments, 6
+
         def evaluate(self, candidates):
             return Evaluation(np.array([[3.0] * segments, [2.0] * segments]), np.array([30.0, 20.0]),
                               np.zeros((2, 3, 6)), np.zeros(2), np.array([True, False]))
@@ -151,3 +153,64 @@ def test_within_one_batch_a_feasible_candidate_is_kept_before_a_less_penalised_i
     tracker.evaluate(np.zeros((2, segments)))
     assert tracker.best_feasible and tracker.best_objective == 30.0
     np.testing.assert_array_equal(tracker.best_durations, [3.0] * segments)
+
+
+@pytest.mark.parametrize("family", ["hybrid", "hermite7"])
+def test_a_large_batch_is_evaluated_in_chunks_with_the_same_result(monkeypatch, family):
+    """Above ``CHUNK_COEFFICIENTS`` a batch is evaluated a chunk at a time (10,000 nests of 999 segments were
+    one 915 MB array, then a MemoryError): the same evaluation, the same best, every candidate counted."""
+    from planner.timing import result as result_module
+
+    problem = TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), family, paper.paper_limits())
+    rng = np.random.default_rng(8)
+    candidates = rng.uniform(0.05, 1.0, (23, problem.segment_count))
+    whole = SearchTracker(problem)
+    expected = whole.evaluate(candidates)
+    monkeypatch.setattr(result_module, "CHUNK_COEFFICIENTS", 5 * problem.segment_count * problem.joint_count * 8)
+    chunked = SearchTracker(problem)
+    evaluation = chunked.evaluate(candidates)
+    for name in ("durations", "objective", "ratios", "position_excess", "feasible"):
+        np.testing.assert_array_equal(getattr(evaluation, name), getattr(expected, name))
+    assert evaluation.states is None and chunked.evaluations == 23
+    np.testing.assert_array_equal(chunked.best_durations, whole.best_durations)
+    durations = expected.durations
+    states = rng.normal(size=(23, len(problem.via_points), problem.joint_count, 3)) * 1e-3
+    if family == "hermite7":
+        np.testing.assert_array_equal(chunked.evaluate_states(durations, states).durations,
+                                      whole.evaluate_states(durations, states).durations)
+
+
+def test_a_batch_in_chunks_stops_at_the_time_limit_after_the_first_chunk(monkeypatch):
+    """The time limit is checked between chunks: a 10,000-nest batch overran a 2 s limit 3.8 times."""
+    from planner.timing import result as result_module
+
+    problem = TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", paper.paper_limits())
+    monkeypatch.setattr(result_module, "CHUNK_COEFFICIENTS", 4 * problem.segment_count * problem.joint_count * 8)
+    tracker = SearchTracker(problem)
+    with time_limit(1e-9):
+        time.sleep(0.01)
+        with pytest.raises(OutOfTime):
+            tracker.evaluate(np.full((40, problem.segment_count), 0.5))
+    assert tracker.evaluations == 4 and tracker.best_feasible
+
+
+@pytest.mark.parametrize("algorithm, setting, value, points", [
+    ("de", "population", 1000, 200), ("cuckoo", "nests", 10_000, 2500), ("pso", "particles", 10_000, 2500)])
+def test_a_population_beyond_what_a_search_holds_is_refused_naming_its_setting(algorithm, setting, value, points):
+    """nests, particles and DE's population (x segments members) within their ranges made arrays of several
+    GB; the most a task allows is the largest whose population holds at most ``MAX_POPULATION_NUMBERS``."""
+    from planner import JointLimits, SettingError
+    from planner.timing import optimize
+    from planner.timing.result import MAX_POPULATION_NUMBERS
+
+    via = np.cumsum(np.random.default_rng(2).uniform(-0.3, 0.3, (points, 2)), axis=0)
+    problem = TimingProblem(via, "cubic", JointLimits.create(2, velocity=[1.0, 1.0], acceleration=[2.0, 2.0]))
+    segments = problem.segment_count
+    numbers = (lambda count: count * segments * segments) if algorithm == "de" else (lambda count: count * segments)
+    most = max(count for count in range(1, value) if numbers(count) <= MAX_POPULATION_NUMBERS)
+    with pytest.raises(SettingError, match=rf"^optimizer setting {setting}: {value} makes a population of "
+                                           rf"{numbers(value) // segments:,} candidates of {segments} durations "
+                                           rf"\({numbers(value):,} numbers\), above the 20,000,000 a search holds: "
+                                           rf"at most {most} for {segments} segments$"):
+        optimize(problem, algorithm, **{setting: value})
+    optimize(problem, algorithm, **{setting: most}, time_limit_s=1e-9)  # the most allowed runs

@@ -413,6 +413,22 @@ def test_counts_probabilities_and_steps_are_checked(settings, path):
     assert_refused(lambda: parse_task(joint_task(optimizer={"algorithm": "cuckoo", **settings})), "", path)
 
 
+@pytest.mark.parametrize("optimizer, message", [
+    ({"algorithm": "default", "refine_starts": 11}, "must be at most nests (10 for default by default), got 11"),
+    ({"algorithm": "cuckoo", "refine_starts": 21}, "must be at most nests (20 for cuckoo by default), got 21"),
+    ({"algorithm": "cuckoo", "nests": 8, "refine_starts": 9}, "must be at most nests (8), got 9"),
+    ({"algorithm": "cuckoo", "polish": False, "refine_starts": 2},
+     "is how many nests the NLP polish starts from, and cuckoo runs no polish: drop it or set polish: true"),
+    ({"algorithm": "cuckoo-paper", "refine_starts": 2},
+     "is how many nests the NLP polish starts from, and cuckoo-paper runs no polish by default"),
+])
+def test_refine_starts_beyond_the_nests_or_without_a_polish_is_refused_when_the_task_is_read(optimizer, message):
+    """Against the default nests too, and where no polish would use it: they were accepted, then failed
+    at plan time without a key (the default nests) or had no effect (no polish) (sweep 15)."""
+    assert_refused(lambda: parse_task(joint_task(optimizer=optimizer)), re.escape(message), "optimizer.refine_starts")
+    parse_task(joint_task(optimizer=optimizer | {"refine_starts": 1, "polish": True}))
+
+
 def test_messages_show_values_cut():
     error = assert_refused(lambda: parse_task(joint_task(name=["x" * 10**6])), "must be a non-empty string")
     assert len(str(error)) < 200
@@ -441,10 +457,13 @@ def task_with(where: str, value) -> dict:
                                             ("12", 12), ("1_000", 1000), ("010", 10), ("-007", -7), ("0x1F", 31),
                                             ("0o17", 15), (".5", 0.5), ("-.inf", -math.inf), ("1:40", "1:40"),
                                             ("2001-12-14", "2001-12-14"), ("yes", "yes"), ("off", "off"),
-                                            ("0b101", "0b101"), ("true", True), ("~", None)])
+                                            ("0b101", "0b101"), ("true", True), ("~", None),
+                                            ("1_000.5", 1000.5), ("1_0e1", 100.0), ("1e1_0", 1e10), ("1_.5", "1_.5"),
+                                            ("1__0.5", "1__0.5"), ("1.5_", "1.5_")])
 def test_plain_scalars_read_as_yaml_1_2_core_schema(tmp_path, text, expected):
     """YAML 1.1 reads 1e-4 as text, 010 as eight, 1:40 as 100 and yes as true; task files read
-    plain scalars as YAML 1.2's core schema does."""
+    plain scalars as YAML 1.2's core schema does, with underscores between digits as in Python
+    (``1_000.5`` was text, sweep 15)."""
     from planner.yaml_input import read_yaml
     path = tmp_path / "x.yaml"
     path.write_text(f"value: {text}\nquoted: '{text}'\n")

@@ -48,7 +48,7 @@ def test_the_default_planner_solves_larger_problems_from_the_shapes_unless_given
     shaped = optimize(problem, progress=lambda *args: calls.append(args))
     assert shaped.algorithm == "nlp" and shaped.settings["starts"] == ["cruise", "stop-at-turns"]
     assert [(done, total) for done, total, _ in calls] == [(1, 1)]
-    explored = optimize(problem, "default", nests=4, iterations=2, refine_starts=1, polish=False)
+    explored = optimize(problem, "default", nests=4, iterations=2, polish=False)
     assert explored.algorithm == "cuckoo" and explored.settings["nests"] == 4 and len(explored.history) == 2
 
 

@@ -61,6 +61,10 @@ def _unconverged(starts: list[StartReport]) -> str:
             f"{short[0].status})")
 
 
+#: The Cuckoo Search the default planner explores with (``_default_planner``).
+DEFAULT_SEARCH = {"nests": 10, "iterations": 5, "refine_starts": 2}
+
+
 def _default_planner(problem: TimingProblem, *, seed: int | None = 0, progress: Progress | None = None,
                      **settings) -> OptimizationResult:
     """The project's default. Up to ``EXPLORED_SEGMENTS`` segments: a short improved Cuckoo
@@ -73,7 +77,7 @@ def _default_planner(problem: TimingProblem, *, seed: int | None = 0, progress: 
     costs more than it finds. Cuckoo Search ``settings``, when given, apply at any size."""
     if problem.segment_count > EXPLORED_SEGMENTS and not settings:
         return shape_starts(problem, progress=progress)
-    settings = {"nests": 10, "iterations": 5, "refine_starts": 2} | settings
+    settings = DEFAULT_SEARCH | settings
     explored = cuckoo_search(problem, seed=seed, progress=progress, **settings)
     unconverged = [start for start in explored.starts if start.status != "Solve_Succeeded"]
     if explored.feasible and not unconverged:
@@ -97,7 +101,7 @@ NOT_SETTINGS = ("seed", "progress", "variant")
 _COUNT = 10_000
 #: Allowed values of every optimizer setting (``bool``: true or false), whichever optimizer takes it;
 #: ``seed`` may also be None (an unseeded run), ``alpha`` and ``polish`` None (the variant's default).
-#: Upper caps keep memory and run time bounded.
+#: Upper caps keep run time bounded; memory is bounded by the task's size too (``result.check_population``).
 SETTING_RANGES: dict[str, Range | type] = {
     "nests": Range(2, _COUNT, integer=True),                 # Cuckoo Search
     "iterations": Range(1, 100_000, integer=True),           # Cuckoo Search, PSO, SLSQP
@@ -168,11 +172,30 @@ def checked_settings(algorithm: str, settings: dict) -> dict:
             checked[name] = ranged(value, _SEED if name == "seed" else SETTING_RANGES[name])
         except InputError as exc:
             raise SettingError(name, str(exc)) from None
-    if checked.get("refine_starts") is not None and checked.get("nests") is not None \
-            and checked["refine_starts"] > checked["nests"]:
-        raise SettingError("refine_starts", f"must be at most nests ({checked['nests']}), "
-                                            f"got {checked['refine_starts']}")
+    if checked.get("refine_starts") is not None:
+        _check_refine_starts(algorithm, checked)
     return checked
+
+
+def _check_refine_starts(algorithm: str, checked: dict) -> None:
+    """``refine_starts`` needs the NLP polish and at most ``nests`` nests, given or the algorithm's default.
+
+    Raises:
+        SettingError: naming ``refine_starts``.
+    """
+    polish = checked.get("polish")
+    if polish is False or (polish is None and algorithm == "cuckoo-paper"):
+        raise SettingError("refine_starts", f"is how many nests the NLP polish starts from, and {algorithm} runs "
+                                            f"no polish{' by default' if polish is None else ''}: drop it or set "
+                                            f"polish: true")
+    nests = checked.get("nests")
+    default = nests is None
+    if default:
+        nests = DEFAULT_SEARCH["nests"] if algorithm == "default" else \
+            inspect.signature(cuckoo_search).parameters["nests"].default
+    if checked["refine_starts"] > nests:
+        given = f" for {algorithm} by default" if default else ""
+        raise SettingError("refine_starts", f"must be at most nests ({nests}{given}), got {checked['refine_starts']}")
 
 
 def optimize(problem: TimingProblem, algorithm: str = "default", *, time_limit_s: float | None = None,

@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import InputError
 from .local import refine
 from .problem import TimingProblem
-from .result import OptimizationResult, Progress, SearchTracker
+from .result import OptimizationResult, Progress, SearchTracker, check_population
 
 
 def particle_swarm(problem: TimingProblem, *, particles: int = 20, iterations: int = 300,
@@ -27,6 +27,7 @@ def particle_swarm(problem: TimingProblem, *, particles: int = 20, iterations: i
     """
     if particles < 2 or iterations < 1:
         raise InputError(f"PSO needs particles >= 2 and iterations >= 1, got {particles}, {iterations}")
+    check_population(problem, "particles", particles, particles)
     rng = np.random.default_rng(seed)
     tracker = SearchTracker(problem, progress, iterations)
     lower, upper = problem.search_box()
@@ -61,6 +62,7 @@ def scipy_differential_evolution(problem: TimingProblem, *, population: int = 15
     """
     lower, upper = problem.search_box()
     members = population * len(lower)
+    check_population(problem, "population", population, members)
     generations = max(1, evaluations // members - 1)
     tracker = SearchTracker(problem, progress, generations)
     from scipy.optimize import differential_evolution  # imported where used: 0.1 s of every run's start

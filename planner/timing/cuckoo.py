@@ -31,7 +31,7 @@ import numpy as np
 from ..errors import InputError
 from .nlp import nlp_refine, nlp_settings
 from .problem import TimingProblem
-from .result import OptimizationResult, Progress, SearchTracker
+from .result import OptimizationResult, Progress, SearchTracker, check_population
 
 VARIANTS = ("improved", "paper")
 
@@ -69,6 +69,7 @@ def cuckoo_search(problem: TimingProblem, *, nests: int = 20, iterations: int = 
                          f"1 < beta <= 2 and 1 <= refine_starts <= nests; got nests={nests}, "
                          f"iterations={iterations}, pa={pa}, alpha={alpha}, beta={beta}, "
                          f"refine_starts={refine_starts}")
+    check_population(problem, "nests", nests, nests)
     repair = variant == "improved"
     if not repair and problem.bounds is None:
         raise InputError("the plain paper variant of Cuckoo Search (cuckoo-paper) needs duration bounds: "

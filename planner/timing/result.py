@@ -10,6 +10,7 @@ from typing import Callable, Iterator
 
 import numpy as np
 
+from ..errors import SettingError
 from ..interrupts import check as check_interrupted
 from ..read_only import ReadOnlyArrays, freeze_arrays
 from .problem import Evaluation, TimingProblem
@@ -112,6 +113,12 @@ class OptimizationResult(ReadOnlyArrays):
         return sum(s.iterations for s in self.starts)
 
 
+#: Most spline coefficients one evaluation holds at once (candidates x segments x joints x 8, 32 MB of
+#: floats, and a few times that in work arrays): ``SearchTracker`` evaluates larger batches in chunks
+#: (10,000 nests of 999 segments made one 915 MB array, then a MemoryError).
+CHUNK_COEFFICIENTS = 2**22
+#: Most numbers a search population may hold (members x segments, 160 MB of floats): ``check_population``.
+MAX_POPULATION_NUMBERS = 2 * 10**7
 #: How the stop reason of a run the time limit ended begins (``OptimizationResult.out_of_time``).
 TIME_LIMIT_REASON = "time limit of"
 #: Monotonic time [s] by which the running optimization must stop, or None (``time_limit``).
@@ -145,6 +152,21 @@ def remaining_time() -> float | None:
     return None if deadline is None else max(deadline - time.monotonic(), 0.0)
 
 
+def check_population(problem: TimingProblem, setting: str, value: int, members: int) -> None:
+    """Refuse a search population of ``members`` candidates, which ``setting`` = ``value`` makes (members
+    in proportion to it), if its array of durations would hold more than ``MAX_POPULATION_NUMBERS``.
+
+    Raises:
+        SettingError: naming ``setting``, the population's size and the most this problem allows.
+    """
+    segments = problem.segment_count
+    numbers = members * segments
+    if numbers > MAX_POPULATION_NUMBERS:
+        raise SettingError(setting, f"{value} makes a population of {members:,} candidates of {segments} durations "
+                                    f"({numbers:,} numbers), above the {MAX_POPULATION_NUMBERS:,} a search holds: at "
+                                    f"most {value * MAX_POPULATION_NUMBERS // numbers} for {segments} segments")
+
+
 class SearchTracker:
     """Counts evaluations, keeps the best candidate seen and the per-iteration history; stops the
     search (``OutOfTime``) once a best candidate exists and the time limit has passed."""
@@ -164,19 +186,31 @@ class SearchTracker:
 
     def evaluate(self, candidates: np.ndarray, repair: bool = True) -> Evaluation:
         """Evaluate a batch (repaired from the search box, or as durations) and track the best."""
-        evaluation = self.problem.evaluate(candidates) if repair else self.problem.evaluate_durations(candidates)
-        return self._track(evaluation)
+        return self._track(self.problem.evaluate if repair else self.problem.evaluate_durations, candidates)
 
     def evaluate_states(self, durations: np.ndarray, states: np.ndarray) -> Evaluation:
         """Evaluate durations (B, S) with free via-point states (B, n, J, 3), repaired
         (``TimingProblem.evaluate_states``), and track the best."""
-        return self._track(self.problem.evaluate_states(durations, states))
+        return self._track(self.problem.evaluate_states, durations, states)
 
-    def _track(self, evaluation: Evaluation) -> Evaluation:
-        """Offer ``evaluation``'s candidates as the best, count them and stop at the time limit."""
-        self.offer(evaluation)
-        self.check_time()
-        return evaluation
+    def _track(self, evaluate: Callable[..., Evaluation], *batches) -> Evaluation:
+        """``evaluate(*batches)`` (arrays of B rows), ``CHUNK_COEFFICIENTS`` at a time: each chunk's
+        candidates offered as the best and counted, the time limit checked after each."""
+        rows = max(1, CHUNK_COEFFICIENTS // (self.problem.segment_count * self.problem.joint_count * 8))
+        whole = np.ndim(batches[0]) != 2 or len(batches[0]) <= rows  # (a malformed batch is refused whole)
+        chunks = [batches] if whole else [tuple(batch[begin:begin + rows] for batch in batches)
+                                          for begin in range(0, len(batches[0]), rows)]
+        parts = []
+        for chunk in chunks:
+            parts.append(evaluate(*chunk))
+            self.offer(parts[-1])
+            self.check_time()
+        if len(parts) == 1:
+            return parts[0]
+        def joined(name: str) -> np.ndarray:
+            return np.concatenate([getattr(part, name) for part in parts])
+        return Evaluation(joined("durations"), joined("objective"), joined("ratios"), joined("position_excess"),
+                          joined("feasible"), None if parts[0].states is None else joined("states"))
 
     def count(self, evaluations: int) -> None:
         """Count ``evaluations`` that offer no candidate (a finite-difference Jacobian's points) and stop
