@@ -89,15 +89,29 @@ def test_de_defaults_spend_about_the_documented_budget():
     members = 15 * problem.segment_count
     result = scipy_differential_evolution(problem)
     generations = 6000 // members - 1
-    assert result.settings == {"population": 15, "generations": generations} and result.seed == 0
+    assert result.settings == {"population": 15, "evaluations": 6000, "generations": generations}
+    assert result.seed == 0
     assert result.evaluations == members * (generations + 1) <= 6000 < members * (generations + 2)
     assert result.algorithm == "de" and result.feasible
 
 
-def test_de_runs_at_least_one_generation_on_a_budget_smaller_than_the_population():
+def test_de_refuses_a_budget_below_its_first_population_and_one_generation():
+    """scipy evaluates the first population and at least one generation whatever the budget: 1
+    evaluation asked spent 10 (sweep 15). A given budget below that is refused; without one, the
+    budget is 6000 or those two populations where they are more, and the settings say which."""
+    from planner import SettingError
     problem = _problem()
+    members = 2 * problem.segment_count
+    with pytest.raises(SettingError, match=rf"^optimizer setting evaluations: {2 * members - 1} is less than "
+                                           rf"differential evolution's first population and one generation, "
+                                           rf"{2 * members} evaluations here \(population 2 x {problem.segment_count} "
+                                           rf"segments each\): raise it or lower the population$"):
+        scipy_differential_evolution(problem, population=2, evaluations=2 * members - 1)
     calls = []
-    result = scipy_differential_evolution(problem, population=2, evaluations=5,
+    result = scipy_differential_evolution(problem, population=2, evaluations=2 * members,
                                           progress=lambda *args: calls.append(args))
-    assert result.settings["generations"] == 1 and result.evaluations == 2 * problem.segment_count * 2
+    assert result.settings["generations"] == 1 and result.evaluations == 2 * members
     assert [(done, total) for done, total, _ in calls] == [(1, 1)]
+    large = scipy_differential_evolution(problem, population=1000, seed=1)
+    members = 1000 * problem.segment_count
+    assert large.settings["evaluations"] == 2 * members == large.evaluations

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, SettingError
 from .local import refine
 from .problem import TimingProblem
 from .result import OptimizationResult, Progress, SearchTracker, check_population
@@ -53,17 +53,27 @@ def particle_swarm(problem: TimingProblem, *, particles: int = 20, iterations: i
     return tracker.result("pso", f"completed {iterations} iterations", seed, settings)
 
 
-def scipy_differential_evolution(problem: TimingProblem, *, population: int = 15, evaluations: int = 6000,
+def scipy_differential_evolution(problem: TimingProblem, *, population: int = 15, evaluations: int | None = None,
                                  seed: int | None = 0, progress: Progress | None = None) -> OptimizationResult:
     """scipy's ``differential_evolution`` (best1bin), vectorised, on the repaired objective.
 
-    ``population`` is scipy's popsize multiplier (population * S members);
-    generations are chosen so the budget is about ``evaluations``.
+    ``population`` is scipy's popsize multiplier (population * S members); generations are chosen
+    so the budget is about ``evaluations``, which must cover the first population and one
+    generation (2 * population * S). None: 6000, or those two where they are more.
+
+    Raises:
+        SettingError: ``evaluations`` below two populations, or a population too large for the
+            problem (``check_population``).
     """
     lower, upper = problem.search_box()
     members = population * len(lower)
     check_population(problem, "population", population, members)
-    generations = max(1, evaluations // members - 1)
+    if evaluations is not None and evaluations < 2 * members:
+        raise SettingError("evaluations", f"{evaluations} is less than differential evolution's first population and "
+                                          f"one generation, {2 * members:,} evaluations here (population {population} "
+                                          f"x {len(lower)} segments each): raise it or lower the population")
+    budget = max(6000, 2 * members) if evaluations is None else evaluations
+    generations = max(1, budget // members - 1)
     tracker = SearchTracker(problem, progress, generations)
     from scipy.optimize import differential_evolution  # imported where used: 0.1 s of every run's start
 
@@ -71,7 +81,7 @@ def scipy_differential_evolution(problem: TimingProblem, *, population: int = 15
         lambda x: tracker.evaluate(x.T).objective, list(zip(lower, upper)), popsize=population,
         maxiter=generations, tol=0, seed=np.random.default_rng(seed), polish=False, vectorized=True,
         updating="deferred", callback=lambda *args, **kwargs: tracker.end_iteration())
-    settings = {"population": population, "generations": generations}
+    settings = {"population": population, "evaluations": budget, "generations": generations}
     return tracker.result("de", solution.message, seed, settings)
 
 
