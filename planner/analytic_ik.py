@@ -53,6 +53,8 @@ SELF_CHECK_TOLERANCE = 1e-9
 #: Random configurations (seeded) of the self-check.
 _SELF_CHECKS = 8
 _SELF_CHECK_SEED = 20240601
+#: Most random configurations the self-check draws to find ``_SELF_CHECKS`` away from singularities.
+_SELF_CHECK_DRAWS = 1000
 
 Solver = Callable[[pin.SE3], np.ndarray]
 
@@ -112,7 +114,8 @@ def _rotations_to_distance(axis: np.ndarray, point: np.ndarray, p: np.ndarray, q
 
 class _Screws:
     """The joint axes of a chain at q = 0: unit directions ``w`` (n, 3) and points ``r`` (n, 3) [m]
-    in the world frame, the tool pose ``home`` = T(0), and ``scale`` [m], the arm's size."""
+    in the world frame, the tool pose ``home`` = T(0), ``size`` [m], the arm's size, and ``scale`` [m],
+    that size but at least 1 m (the geometric tolerances' unit)."""
 
     def __init__(self, robot: Robot):
         model, data = robot.model, robot.model.createData()
@@ -122,7 +125,9 @@ class _Screws:
         self.w /= np.linalg.norm(self.w, axis=1, keepdims=True)
         self.r = np.cross(self.w, twists[:3].T)
         self.home = robot.forward_kinematics(q0)
-        self.scale = max(1.0, float(np.abs(self.r).max()), float(np.abs(self.home.translation).max()))
+        #: The arm's size [m]: its axes' and tool's largest distance from the base along an axis.
+        self.size = max(float(np.abs(self.r).max()), float(np.abs(self.home.translation).max()))
+        self.scale = max(1.0, self.size)
 
     def motion(self, joint: int, angle: float) -> pin.SE3:
         """exp(xi_joint angle): the rigid motion of turning ``joint`` by ``angle`` [rad] about its line."""
@@ -228,14 +233,21 @@ def _wrapped(q: np.ndarray) -> np.ndarray:
     return (q + np.pi) % (2 * np.pi) - np.pi
 
 
-def _self_check(robot: Robot, solve: Solver) -> bool:
+def _self_check(robot: Robot, solve: Solver, size: float) -> bool:
     """Whether, on seeded random configurations away from singularities, the solutions of each one's pose
-    include it (up to 2 pi turns) and all reach that pose to ``SELF_CHECK_TOLERANCE``."""
+    include it (up to 2 pi turns) and all reach that pose to ``SELF_CHECK_TOLERANCE``. Away from
+    singularities: the Jacobian's smallest singular value at least 1e-2, its linear rows in units of the
+    arm's ``size`` [m] where that is below 1 m. False if ``_SELF_CHECK_DRAWS`` draws do not find
+    ``_SELF_CHECKS`` such configurations (a chain singular everywhere: zero-length links, an axis
+    repeated; the numeric search handles it)."""
     rng = np.random.default_rng(_SELF_CHECK_SEED)
+    unit = np.array([1 / min(1.0, size)] * 3 + [1.0] * 3)[:, None] if size > 0 else np.ones((6, 1))
     checked = 0
-    while checked < _SELF_CHECKS:
+    for _ in range(_SELF_CHECK_DRAWS):
+        if checked == _SELF_CHECKS:
+            break
         q = rng.uniform(-np.pi, np.pi, 6)
-        if np.linalg.svd(robot.frame_jacobian(q), compute_uv=False)[-1] < 1e-2:
+        if np.linalg.svd(unit * robot.frame_jacobian(q), compute_uv=False)[-1] < 1e-2:
             continue
         checked += 1
         target = robot.forward_kinematics(q)
@@ -246,7 +258,7 @@ def _self_check(robot: Robot, solve: Solver) -> bool:
             error = pin.log6(robot.forward_kinematics(solution).actInv(target)).vector
             if max(np.linalg.norm(error[:3]), np.linalg.norm(error[3:])) > SELF_CHECK_TOLERANCE:
                 return False
-    return True
+    return checked == _SELF_CHECKS
 
 
 def analytic_solver(robot: Robot) -> Solver | None:
@@ -262,7 +274,7 @@ def analytic_solver(robot: Robot) -> Solver | None:
         solve = build(screws)
         if solve is not None:
             wrapped = _wrapped_solver(solve)
-            if _self_check(robot, wrapped):
+            if _self_check(robot, wrapped, screws.size):
                 return wrapped
     return None
 

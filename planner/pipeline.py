@@ -700,10 +700,11 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
             if candidate_figures.violations(limits):
                 return None
             candidate_path = path
-            if path is not None and task.path.mode == "linear":
+            if path is not None:  # the tool's path changed with the spline: its deviations are measured again
                 assert poses is not None and robot is not None
                 *_, distance, angle = tool_deviation(robot, candidate, poses, path.waypoint_via)
-                if not (np.all(distance <= task.path.tolerance_m) and np.all(angle <= task.path.tolerance_rad)):
+                if task.path.mode == "linear" and not (np.all(distance <= task.path.tolerance_m)
+                                                       and np.all(angle <= task.path.tolerance_rad)):
                     return None
                 candidate_path = replace(path, max_distance_m=distance, max_angle_rad=angle)
             return candidate, candidate_met, candidate_figures, candidate_path

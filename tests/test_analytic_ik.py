@@ -127,3 +127,44 @@ def test_margin_is_reported_for_every_arm():
     # Joint 5 at 30 deg is 70 deg from its bound of 100 deg; joint 2 at -50 deg is 95 deg from 45 deg.
     assert solution.margin_deg == pytest.approx(min(np.rad2deg(np.minimum(q - robot.limits.lower,
                                                                             robot.limits.upper - q))))
+
+
+def scaled_puma(tmp_path, factor):
+    """The PUMA with every placement (joint, tool and inertial origins) multiplied by ``factor``."""
+    import re
+
+    def scaled(match):
+        return '<origin xyz="' + " ".join(repr(float(v) * factor) for v in match.group(1).split()) + '"'
+    path = tmp_path / "puma560.urdf"
+    path.write_text(re.sub(r'<origin xyz="([^"]*)"', scaled, PUMA_URDF.read_text()))
+    return Robot.from_urdf(path, "tool")
+
+
+def test_a_small_arm_of_a_known_class_keeps_its_closed_form(tmp_path):
+    """The self-check's configurations away from singularities are judged in units of the arm's size: a
+    PUMA a hundredth of the size found none under an absolute threshold (and drew forever, sweep 16)."""
+    robot = scaled_puma(tmp_path, 0.01)
+    solve = analytic_solver(robot)
+    assert solve is not None
+    q = np.deg2rad([10, -50, 70, 20, 30, 40])
+    target = robot.forward_kinematics(q)
+    solutions = solve(target)
+    assert np.min(np.abs(wrapped(solutions - q)).max(axis=1)) <= 1e-6
+    assert all(residual(robot, s, target) <= 1e-9 for s in solutions)
+
+
+def test_a_chain_singular_everywhere_has_no_closed_form_and_does_not_hang(tmp_path):
+    """Every placement at the origin: the tool frame has fewer than 6 degrees of freedom everywhere, so no
+    configuration qualifies for the self-check; after ``_SELF_CHECK_DRAWS`` draws the arm gets the numeric
+    search (the default IK hung, sweep 16)."""
+    import signal
+
+    def hung(*args):
+        raise TimeoutError("analytic_solver did not return within 60 s")
+    previous = signal.signal(signal.SIGALRM, hung)
+    signal.alarm(60)
+    try:
+        assert analytic_solver(scaled_puma(tmp_path, 0.0)) is None
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)

@@ -221,6 +221,17 @@ def test_a_tool_speed_cap_is_met_exactly_and_timing_with_it_beats_slowing_down(p
     assert summary["retimed_in_nlp"] is True
     assert summary["uniform_slow_down_total_time_s"] == pytest.approx(17.3128 * peak / 0.25, rel=1e-3)
     assert result.summary()["total_time_s"] < 0.7 * summary["uniform_slow_down_total_time_s"]
+    # The re-timing reshapes the tool's path: the summary's deviations from the straight segments are
+    # the planned trajectory's (they were the discarded kinematic one's, sweep 16), by dense FK.
+    path = result.summary()["path"]
+    via_times = trajectory.via_times[path["waypoint_via_index"]]
+    for segment, (start, end) in zip(path["segments"], zip(via_times[:-1], via_times[1:])):
+        tool = np.array([puma.forward_kinematics(q).translation for q in trajectory.evaluate(
+            np.linspace(start, end, 2001))])
+        line = tool[-1] - tool[0]
+        along = np.clip((tool - tool[0]) @ line / (line @ line), 0, 1)
+        distance = np.linalg.norm(tool - tool[0] - along[:, None] * line, axis=1).max()
+        assert segment["max_position_deviation_m"] == pytest.approx(distance, rel=1e-3, abs=1e-6)
 
 
 @pytest.mark.parametrize("polish", [True, False])
