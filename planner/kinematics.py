@@ -153,6 +153,8 @@ def column_roots(p: np.ndarray) -> np.ndarray:
         (B, C, J, R) roots in [0, 1], NaN padded, R the most roots any column can have.
     """
     batch, columns, joints, width = p.shape
+    if width == 0:  # the derivative of a constant: no coefficients, no roots
+        return np.full((batch, columns, joints, 0), np.nan)
     nonzero = _column_nonzero(p)
     has_any = nonzero.any(axis=1)
     top = np.where(has_any, width - 1 - np.argmax(nonzero[:, ::-1], axis=1), 0)
@@ -437,13 +439,21 @@ class KinematicFigures(ReadOnlyArrays):
 CONTINUOUS_ORDERS = ("position", "velocity", "acceleration")
 
 
+#: The coefficients' rounding ``continuity_breaks`` allows, in units of eps |q| / h^d (the planner's
+#: own splines, every family, tiny motions at up to 1e5 deg: at most 0.74 of it).
+ROUNDING_ULPS = 16
+
+
 def continuity_breaks(trajectory: PiecewisePolynomial, names: tuple[str, ...] | list[str] | None = None) -> list[str]:
     """Where ``trajectory`` is not a motion the planner makes, one line each (empty: none): a jump of a
     joint's position, velocity or acceleration at a knot (the first per joint and order), or a velocity or
     acceleration other than 0 at the start or the end. A jump counts beyond ``FEASIBILITY_TOLERANCE`` of
-    the order's scale: the largest over segments and joints of sum_i |c_i^(d)| h^i, which bounds
-    |q^(d)| there (for positions, at least 1 rad); the planner's own trajectories jump by less than 1e-12
-    of it.
+    the order's scale, the largest over segments and joints of sum_i |c_i^(d)| h^i, which bounds
+    |q^(d)| there (for positions, at least 1 rad), plus the coefficients' rounding, ``ROUNDING_ULPS`` eps
+    |q| / h^d with |q| the joint's largest position and h the shorter segment at the knot (coefficients
+    of order d are differences of positions over h^d: a 1e-9 rad motion at 3 rad, in 1 ms segments,
+    jumped 1e-13 rad/s, more than 1e-9 of its velocity); the planner's own trajectories jump by less
+    than 1e-12 of the scale.
 
     On segment k, q^(d) at its start is the d-th derivative polynomial's constant term, at its end that
     polynomial at tau = h_k (``derivative_coefficients``, ``polyval``).
@@ -452,6 +462,8 @@ def continuity_breaks(trajectory: PiecewisePolynomial, names: tuple[str, ...] | 
     names = names or default_joint_names(trajectory.joint_count)
     knot_times = trajectory.knot_times
     at_end = np.broadcast_to(h[:, None, None], c.shape[:2] + (1,))  # (S, J, 1): tau = h_k
+    magnitude = np.abs(c[..., 0]).max(axis=0)  # (J,) the largest position of each joint [rad]
+    shorter = np.minimum(h[:-1], h[1:])  # (S - 1,) at each interior knot
     breaks = []
     for order, quantity in enumerate(CONTINUOUS_ORDERS):
         derivative = derivative_coefficients(c, order)  # (S, J, D + 1 - order)
@@ -460,16 +472,20 @@ def continuity_breaks(trajectory: PiecewisePolynomial, names: tuple[str, ...] | 
             end = polyval(derivative, at_end)[..., 0]
             bound = polyval(np.abs(derivative), at_end)  # sum_i |c_i^(d)| h^i bounds |q^(d)| on a segment
         scale = max(float(np.max(bound)), 1.0 if order == 0 else 0.0)
-        allowed = FEASIBILITY_TOLERANCE * scale
+        with np.errstate(over="ignore"):
+            rounding = ROUNDING_ULPS * np.finfo(float).eps * magnitude / np.concatenate(
+                (h[:1], shorter, h[-1:]))[:, None] ** order  # (S + 1, J): at the start, each knot, the end
+        allowed = FEASIBILITY_TOLERANCE * scale + rounding
         jumps = np.abs(end[:-1] - start[1:])  # (S - 1, J): knot k + 1
         for j, name in enumerate(names):
-            beyond = np.flatnonzero(~(jumps[:, j] <= allowed))
+            beyond = np.flatnonzero(~(jumps[:, j] <= allowed[1:-1, j]))
             if beyond.size:
                 k = int(beyond[0]) + 1
                 breaks.append(f"joint {name} {quantity} jumps by {in_degrees(jumps[k - 1, j], order)} at knot {k} "
                               f"(t = {knot_times[k]:.6g} s)")
-            for where, value in (("start", start[0, j]), ("end", end[-1, j])) if order else ():
-                if not abs(value) <= allowed:
+            for where, value, limit in (("start", start[0, j], allowed[0, j]),
+                                        ("end", end[-1, j], allowed[-1, j])) if order else ():
+                if not abs(value) <= limit:
                     breaks.append(f"joint {name} {quantity} is {in_degrees(value, order)} at the {where}, where "
                                   f"every trajectory rests")
     return breaks

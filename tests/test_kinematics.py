@@ -458,3 +458,32 @@ def test_a_jump_at_a_knot_or_motion_at_an_end_is_named(change, said):
     broken = PiecewisePolynomial(trajectory.durations, coefficients, trajectory.via_knots)
     assert said in continuity_breaks(broken)
     assert continuity_breaks(trajectory) == []
+
+
+@pytest.mark.parametrize("offset_deg, step_deg, limit_deg", [(170.0, 1e-7, 60.0), (99_999.0, 1e-4, 1e-4)])
+def test_rounding_of_a_tiny_motion_far_from_zero_is_not_a_jump(offset_deg, step_deg, limit_deg):
+    """Coefficients of order d carry rounding of about eps |q| / h^d: 1e-7 deg moves at 170 deg in 1 ms
+    segments jumped 8e-12 deg/s, more than 1e-9 of their velocity, and the plan was refused (sweep 16).
+    A real jump of the same trajectory, 1e-3 of its velocity scale, is still named."""
+    from planner import plan
+    from planner.task import make_task
+
+    steps = np.array([[0, 0, 0], [1, -1, 1], [-1, 0.5, 2], [0, 0, 0]])
+    task = make_task(joints_deg=(offset_deg * np.array([1, -1, 1]) + step_deg * steps).tolist(),
+                     limits={key: [limit_deg] * 3 for key in ("velocity_deg_s", "acceleration_deg_s2", "jerk_deg_s3")})
+    trajectory = plan(task).trajectory
+    assert continuity_breaks(trajectory) == []
+    coefficients = np.array(trajectory.coefficients)
+    velocity_scale = np.abs(coefficients[..., 1]).max()
+    coefficients[1, 0, 1] += 1e-3 * velocity_scale
+    broken = PiecewisePolynomial(trajectory.durations, coefficients, trajectory.via_knots)
+    assert any(line.startswith("joint joint1 velocity jumps by") for line in continuity_breaks(broken))
+
+
+def test_a_constant_spline_has_no_extremes_inside_its_segments():
+    """Polynomials of one coefficient (a forged recording's) made ``column_roots`` take the argmax of an
+    empty array: an internal ValueError in ``replay --check`` (sweep 16)."""
+    constant = PiecewisePolynomial(np.array([1.0, 1.0]), np.full((2, 1, 1), 0.3), np.array([0, 2]))
+    figures = kinematic_figures(constant)
+    np.testing.assert_array_equal(figures.max_abs, [[0.0], [0.0], [0.0]])
+    assert column_roots(np.zeros((1, 2, 1, 0))).shape == (1, 2, 1, 0)
