@@ -51,7 +51,9 @@ def _plan(args) -> int:
     if not args.quiet:
         timing = ", ".join(f"{k} {v:.3f} s" for k, v in result.timings_s.items())
         print(f"{result.task.name}: {result.task.family}, total time {result.trajectory.total_time:.4f} s, "
-              f"largest ratio {result.max_ratio:.4f}, feasible {result.feasible}")
+              f"largest ratio {result.max_ratio:.4f}, feasible {result.feasible}"
+              + (" (stopped by the time limit: the best timing found by then)" if result.optimization.out_of_time
+                 else ""))
         print(f"timings: {timing}")
         print(f"outputs in {_printable(str(out))}/: "
               + ", ".join(sorted(p.name for p in out.iterdir() if not p.name.startswith("."))))

@@ -613,8 +613,10 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
                 raise TaskError(f"optimizer.{exc.setting}", exc.problem) from None
         trajectory = problem.trajectory(result.durations, result.knot_states)
         found = kinematic_figures(trajectory).violations(limits)  # the trajectory built, checked once more
+        cut = f", stopped by the time limit of {settings['time_limit']:g} s" if result.out_of_time else ""
         progress.note(f"{progress.label}: total time {result.total_time:.6g} s, "
-                      f"{'feasible' if result.feasible and not found else 'INFEASIBLE'} ({result.wall_time_s:.2f} s)")
+                      f"{'feasible' if result.feasible and not found else 'INFEASIBLE'}{cut} "
+                      f"({result.wall_time_s:.2f} s)")
         if not result.feasible or found:
             worst = max(found, key=lambda violation: violation.ratio, default=None)
             if problem.bounds is not None and not (

@@ -299,3 +299,15 @@ def test_a_huge_ratio_prints_in_a_few_characters():
     from planner.cli import _ratio
     assert _ratio(0.99999) == "1.0000" and _ratio(1.23456) == "1.2346" and _ratio(9999.0) == "9999.0000"
     assert _ratio(3.7e300) == "3.7e+300" and _ratio(float("inf")) == "inf"
+
+
+def test_a_run_the_time_limit_stopped_says_so_in_its_progress_and_result_lines(tmp_path, capsys):
+    """The terminal said only "feasible" after a time-limited run (sweep 13), which may be far from optimal."""
+    out = tmp_path / "out"
+    assert main(["plan", str(small_task(tmp_path, time_limit_s=1e-9)), "--out", str(out)]) == 0
+    printed = capsys.readouterr()
+    text = printed.out + printed.err
+    assert "feasible, stopped by the time limit of 1e-09 s (" in text
+    assert "feasible True (stopped by the time limit: the best timing found by then)" in text
+    assert main(["plan", str(small_task(tmp_path)), "--out", str(out), "--force"]) == 0
+    assert "time limit" not in capsys.readouterr().out
