@@ -77,6 +77,11 @@ def _reproduce(args) -> int:
     return 0
 
 
+#: A ``--time`` this far past the recording's end, relative, is its end: the summary and the CSV print the
+#: total time to 12 or 13 digits, rounded up half the time.
+TIME_END_TOLERANCE = 1e-9
+
+
 def _replay(args) -> int:
     from .errors import InputError
     from .export import write_trajectory_csv
@@ -101,6 +106,8 @@ def _replay(args) -> int:
     target = args.export_csv
     total = recorded.trajectory.total_time
     at = total / 2 if args.time is None else args.time
+    if total < at <= total * (1 + TIME_END_TOLERANCE):  # the end as the outputs print it, rounded up
+        at = total
     if args.screenshot is not None and not 0.0 <= at <= total:
         given, end = numbers_apart(at, total)  # as many digits as tell a time just past the end from it
         raise InputError(f"--time {given} s is outside the recording's 0 to {end} s")

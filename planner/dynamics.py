@@ -334,6 +334,11 @@ def _held_still_beyond(robot: Robot, joint: int, gravity: float, limit: float, w
                            value=gravity, limit=limit)
 
 
+def holds_still(robot: Robot, torque_limit: np.ndarray, q: np.ndarray) -> bool:
+    """Whether the torque limits (J,) [N m] hold the arm still at positions q (J,) [rad] against gravity."""
+    return not bool(np.any(np.abs(gravity_torques(robot, np.asarray(q, dtype=float)[None])[0]) > torque_limit))
+
+
 def check_resting_ends(robot: Robot, torque_limit: np.ndarray, via_points: np.ndarray) -> None:
     """Refuse via-points (n, J) [rad] at whose first or last the torque limits (J,) [N m] cannot hold the
     arm: every family starts and ends at rest, so the torque there is gravity's alone, g(q), whatever

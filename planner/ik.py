@@ -420,7 +420,8 @@ def choose_branches(robot: Robot, limits: JointLimits, candidates: list[np.ndarr
 def solve_waypoints(robot: Robot, poses: list[pin.SE3], *, hints: list[np.ndarray | None] | None = None,
                     start: np.ndarray | None = None, branch: str = "optimal", limits: JointLimits | None = None,
                     restarts: int = 30, accept: float = 1e-9, seed: int = 0,
-                    progress: Callable[[int, int], None] | None = None) -> list[IKSolution]:
+                    progress: Callable[[int, int], None] | None = None,
+                    rests: Callable[[np.ndarray], bool] | None = None) -> list[IKSolution]:
     """Joint configurations for a sequence of poses (module docstring for the two rules).
 
     Args:
@@ -434,6 +435,9 @@ def solve_waypoints(robot: Robot, poses: list[pin.SE3], *, hints: list[np.ndarra
         accept: largest residual (m and rad) accepted as reached.
         seed: seed of the random starts.
         progress: called as ``progress(done, total)`` after each waypoint solved.
+        rests: whether the arm can rest at a configuration [rad] (its torque limits hold it against
+            gravity): the ``optimal`` rule chooses the first and last waypoints' solutions among those
+            it accepts, where there are any (the trajectory rests there whatever its timing).
 
     Raises:
         IKError: a pose not reached within the joint ranges (naming the waypoint and the best residual).
@@ -451,7 +455,7 @@ def solve_waypoints(robot: Robot, poses: list[pin.SE3], *, hints: list[np.ndarra
     rng = np.random.default_rng(seed)
     report = progress or (lambda done, total: None)
     if branch == "optimal":
-        return _optimal_branches(robot, poses, hints, start, limits or robot.limits, rng, accept, report)
+        return _optimal_branches(robot, poses, hints, start, limits or robot.limits, rng, accept, report, rests)
     return _continuous_branch(robot, poses, hints, start, limits or robot.limits, rng, restarts, accept, report)
 
 
@@ -489,7 +493,7 @@ def _check_candidate_count(robot: Robot, limits: JointLimits, index: int, found:
                   f"ik.branch: continuous", waypoint=index)
 
 
-def _optimal_branches(robot, poses, hints, start, limits, rng, accept, progress) -> list[IKSolution]:
+def _optimal_branches(robot, poses, hints, start, limits, rng, accept, progress, rests) -> list[IKSolution]:
     """``solve_waypoints`` with the ``optimal`` rule."""
     per_pose, candidates, owners = [], [], []
     for index, (target, hint) in enumerate(zip(poses, hints)):
@@ -503,6 +507,10 @@ def _optimal_branches(robot, poses, hints, start, limits, rng, accept, progress)
         if hint is None:
             _check_candidate_count(robot, limits, index, found)
         variants = [s.q[None] if hint is not None else turn_variants(robot, s.q, limits) for s in found]
+        if rests is not None and index in (0, len(poses) - 1):
+            resting = [v[[rests(q) for q in v]] for v in variants]
+            if any(len(v) for v in resting):  # else every one is kept: the timing names the limit
+                variants = resting
         per_pose.append((found, attempts))
         candidates.append(np.concatenate(variants))
         owners.append(np.repeat(np.arange(len(found)), [len(v) for v in variants]))

@@ -21,6 +21,7 @@ from .dynamics import (
     RobotLimitOutcome,
     bodies_without_inertia,
     check_resting_ends,
+    holds_still,
     joint_torques,
     meet_robot_limits,
     torque_limits,
@@ -571,8 +572,9 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         progress.note(f"inverse kinematics: {len(poses)} waypoints ({task.ik.branch} branch rule)")
         progress.label = f"inverse kinematics, {task.ik.branch} rule"
         waypoints_done = partial(progress.count, what="waypoints")
+        rests = None if torque is None else partial(holds_still, robot, torque)
         ik = solve_waypoints(robot, poses, hints=hints, start=task.ik.start, branch=task.ik.branch, limits=limits,
-                             seed=task.ik.seed, progress=waypoints_done)
+                             seed=task.ik.seed, progress=waypoints_done, rests=rests)
         if task.ik.branch == "optimal":  # the timing below keeps the faster of the two rules' sequences
             progress.label = "inverse kinematics, continuous rule (the alternative sequence)"
             try:

@@ -613,3 +613,20 @@ def test_the_robot_rounds_warm_start_reaches_the_cold_starts_optimum(monkeypatch
     cold = plan(task)
     assert warm.robot_limits.uniform_total_s is not None and cold.robot_limits.uniform_total_s is not None
     assert warm.trajectory.total_time == pytest.approx(cold.trajectory.total_time, rel=1e-7)
+
+
+def test_the_optimal_rule_rests_the_arm_where_its_torque_limits_hold_it():
+    """The IK branch choice ignored torque limits: the first waypoint's chosen solution needed 48.4 N m at
+    a 20 N m shoulder to hold still, and the task was refused, though 2 of the pose's 8 solutions need 13.5
+    N m (sweep 16). The first and last waypoints now rest where gravity alone stays within the limits."""
+    task = {"version": 1, "robot": {"name": "ur5", "tool_frame": "tool0"},
+            "waypoints": {"cartesian": [{"xyz_m": [0.40, -0.25, 0.35], "rpy_deg": [180, 0, 90]},
+                                        {"xyz_m": [0.25, 0.35, 0.40], "rpy_deg": [180, 0, 45]}]},
+            "limits": {"acceleration_deg_s2": [150, 150, 150, 300, 300, 300],
+                       "jerk_deg_s3": [600, 600, 600, 1200, 1200, 1200], "torque_nm": [150, 20, 150, 28, 28, 28]}}
+    result = plan(task)
+    model = result.robot.model
+    data = model.createData()
+    for q in result.trajectory.evaluate(np.array([0.0, result.trajectory.total_time])):
+        assert np.all(np.abs(pin.computeGeneralizedGravity(model, data, q)) <= [150, 20, 150, 28, 28, 28])
+    assert result.summary()["ik"]["sequence_kept"] == "optimal"

@@ -133,7 +133,22 @@ def test_a_time_just_past_the_end_reads_past_it(recording, tmp_path, capsys):
     from planner.recording import read_recording
 
     total = read_recording(recording).trajectory.total_time
-    past = total * (1 + 1e-11)
+    past = total * (1 + 1e-8)  # beyond the rounding of the printed end (``TIME_END_TOLERANCE``)
     assert main(["replay", str(recording), "--screenshot", str(tmp_path / "s.png"), "--time", repr(past)]) == 2
     said = re.search(r"--time (\S+) s is outside the recording's 0 to (\S+) s", capsys.readouterr().err)
     assert said and said[1] != said[2] and float(said[1]) > float(said[2]) == pytest.approx(total, rel=1e-9)
+
+
+def test_the_end_as_the_outputs_print_it_is_the_end(recording, tmp_path, monkeypatch):
+    """summary.json and the CSV print the total time to 12 or 13 digits, rounded up half the time: that
+    time was refused as outside the recording (sweep 16). Within ``TIME_END_TOLERANCE`` it is the end."""
+    import planner.screenshot as screenshot
+    from planner.recording import read_recording
+
+    asked = []
+    monkeypatch.setattr(screenshot, "render_screenshot", lambda source, target, at: asked.append(at))
+    total = read_recording(recording).trajectory.total_time
+    for at in (total * (1 + 1e-12), total * (1 + 1e-10)):  # as 12 or 13 digits round it up, and more
+        assert main(["replay", str(recording), "--screenshot", str(tmp_path / "s.png"), "--time", repr(at),
+                     "--force"]) == 0
+    assert asked == [total, total]

@@ -747,3 +747,20 @@ def test_a_joint_parked_on_its_range_bound_changes_nothing(family):
     without = optimize(TimingProblem(moving, family, alone), "nlp")
     assert with_parked.feasible and with_parked.total_time == pytest.approx(without.total_time, rel=1e-6)
     assert all(start.status in ("Solve_Succeeded", "Solved_To_Acceptable_Level") for start in with_parked.starts)
+
+
+def test_free_states_are_not_repaired_below_h_min():
+    """hermite7 with every duration fixed at 1.3 s: the NLP's timing meets the limits without reaching one,
+    and the repair shrank it to 1.285 s, below h_min, then refused it as outside the bounds (sweep 16's
+    follow-up); the same at 1.4 s. A solve on h_min is kept there, feasible, its largest ratio below 1."""
+    via = np.radians([[0, 0], [40, -20], [90, 10]])
+    limits = JointLimits.create(2, velocity=np.radians([60, 60]), acceleration=np.radians([120, 120]),
+                                jerk=np.radians([600, 600]))
+    for h in (1.3, 1.4):
+        problem = TimingProblem(via, "hermite7", limits, bounds=(h, h))
+        result = optimize(problem, "nlp")
+        assert result.feasible and np.array_equal(result.durations, [h, h]) and result.max_ratio < 1
+        trajectory = problem.trajectory(result.durations, result.knot_states)
+        assert kinematic_figures(trajectory).violations(limits) == []
+        slack = problem.evaluate_states(result.durations[None], result.knot_states[None])
+        assert np.array_equal(slack.durations[0], [h, h]) and slack.feasible[0]

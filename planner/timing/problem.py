@@ -378,15 +378,18 @@ class TimingProblem:
         """Repair durations (B, S) [s] with the free via-point states (B, n, J, 3) of a family that
         has them, by the lemma: durations times s, velocity, acceleration and jerk divided by s, s^2,
         s^3 (``time_scale_factor``; for ``time-jerk`` no less than the ray's optimum), so every limit
-        holds and one is reached. Bounds are not enforced by the repair (the NLP imposes them):
-        a result outside them is penalised."""
+        holds and one is reached, but no less than takes the shortest duration to ``duration_floor``
+        (a solve whose durations sit on h_min with no limit reached is shrunk no further; shrunk, it
+        was refused as below h_min). h_max is not enforced by the repair (the NLP imposes it): a
+        result above it is penalised."""
         h = self._batch("durations", durations)
         checked = self._states(states, len(h))
         if checked is None:
             raise InputError("evaluate_states needs the via-point states (B, n, J, 3); evaluate repairs "
                              "durations alone")
         coefficients, _, scale = self._figures(h, checked)
-        scale = self._repair_scale(scale, self._energy(coefficients, h), h)
+        scale = np.maximum(self._repair_scale(scale, self._energy(coefficients, h), h),
+                           self.duration_floor / h.min(axis=1))
         return self._evaluate_durations(h * scale[:, None], checked / powers(scale, 4)[:, None, None, 1:])
 
     def trajectory(self, durations, states: np.ndarray | None = None) -> PiecewisePolynomial:
