@@ -59,7 +59,7 @@ import pinocchio as pin
 
 from .analytic_ik import Solver, analytic_solver
 from .errors import IKError, InputError
-from .limits import JointLimits, in_degrees_apart, rest_to_rest_time
+from .limits import FEASIBILITY_TOLERANCE, JointLimits, in_degrees_apart, rest_to_rest_time
 from .read_only import ReadOnlyArrays, freeze_arrays
 from .robot import Robot
 
@@ -267,8 +267,8 @@ def nearest_turn(robot: Robot, q: np.ndarray, reference: np.ndarray) -> np.ndarr
     range. A joint that no turn puts in range keeps its value."""
     lower, upper = robot.limits.lower, robot.limits.upper
     with np.errstate(invalid="ignore"):  # an unbounded side leaves its k unbounded (inf / 2 pi)
-        fewest = np.ceil((lower - q) / (2 * np.pi) - 1e-12)
-        most = np.floor((upper - q) / (2 * np.pi) + 1e-12)
+        fewest = np.ceil((lower - FEASIBILITY_TOLERANCE - q) / (2 * np.pi))
+        most = np.floor((upper + FEASIBILITY_TOLERANCE - q) / (2 * np.pi))
     turns = np.clip(np.round((reference - q) / (2 * np.pi)), fewest, most)
     return np.where(robot.revolute & (fewest <= most), q + 2 * np.pi * turns, q)
 
@@ -290,19 +290,21 @@ def _turns_freely(robot: Robot, limits: JointLimits) -> np.ndarray:
 
 
 def _turn_options(robot: Robot, q: np.ndarray, limits: JointLimits) -> list[np.ndarray]:
-    """Per joint, the values of ``q_j`` up to 2 pi turns within its range (``turn_variants``)."""
-    lower, upper = limits.lower, limits.upper
+    """Per joint, the values of ``q_j`` up to 2 pi turns within its range (``turn_variants``); a value within
+    ``FEASIBILITY_TOLERANCE`` of a bound is on it, as for via-points (a pose whose solution puts a joint at
+    a documented 45 deg, 4e-10 rad past the URDF's 9-decimal bound, was not reached)."""
+    lower, upper = limits.lower - FEASIBILITY_TOLERANCE, limits.upper + FEASIBILITY_TOLERANCE
     free = _turns_freely(robot, limits)
     options = []
     for j in range(robot.dof):
         if free[j]:
             values = np.array([_wrapped(robot, q)[j]])
         elif not robot.revolute[j]:
-            values = np.array([q[j]] if lower[j] - 1e-12 <= q[j] <= upper[j] + 1e-12 else [])
+            values = np.array([q[j]] if lower[j] <= q[j] <= upper[j] else [])
         else:
-            turns = np.arange(np.ceil((lower[j] - q[j]) / (2 * np.pi) - 1e-12),
-                              np.floor((upper[j] - q[j]) / (2 * np.pi) + 1e-12) + 1)
-            values = np.clip(q[j] + 2 * np.pi * turns, lower[j], upper[j])
+            turns = np.arange(np.ceil((lower[j] - q[j]) / (2 * np.pi)), np.floor((upper[j] - q[j]) / (2 * np.pi)) + 1)
+            values = q[j] + 2 * np.pi * turns
+        values = np.clip(values, limits.lower[j], limits.upper[j])
         options.append(values)
     return options
 

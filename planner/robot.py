@@ -50,6 +50,8 @@ _LIMIT_FILE_KEYS = {q.key: q.name for q in LIMITED[1:]}  # acceleration and jerk
 _REVOLUTE = ("JointModelRX", "JointModelRY", "JointModelRZ", "JointModelRevoluteUnaligned")
 #: Pinocchio's prismatic joints, named as such when refused.
 _PRISMATIC = ("JointModelPX", "JointModelPY", "JointModelPZ", "JointModelPrismaticUnaligned")
+#: Pinocchio's revolute joints without bounds (a URDF ``continuous`` joint), named as such when refused.
+_CONTINUOUS = ("JointModelRUBX", "JointModelRUBY", "JointModelRUBZ", "JointModelRevoluteUnboundedUnaligned")
 
 
 @dataclass
@@ -218,6 +220,11 @@ class Robot:
                 raise UnsupportedRobotError(f"joint {reduced.names[j]!r} of robot {shown(name)} is prismatic ({kind}); "
                                             f"only revolute joints are supported (task values are in degrees)",
                                             joint=reduced.names[j])
+            if kind in _CONTINUOUS:
+                raise UnsupportedRobotError(f"joint {reduced.names[j]!r} of robot {shown(name)} is continuous (a "
+                                            f"revolute joint without position limits, {kind}); only revolute joints "
+                                            f"with limits are supported: in the URDF, give it type=\"revolute\" and "
+                                            f"<limit lower=... upper=...>", joint=reduced.names[j])
             if kind not in _REVOLUTE:
                 raise UnsupportedRobotError(f"joint {reduced.names[j]!r} of robot {shown(name)} is a {kind}; only "
                                             f"revolute joints with one axis and position limits are supported",

@@ -370,3 +370,17 @@ def test_progress_counts_every_waypoint(puma, branch):
     solve_waypoints(puma, [puma.forward_kinematics(q) for q in via], branch=branch,
                     progress=lambda done, total: calls.append((done, total)))
     assert calls == [(1, 3), (2, 3), (3, 3)]
+
+
+def test_a_solution_on_a_documented_bound_is_in_range(puma):
+    """45 deg is 4e-10 rad above the URDF's upper="0.785398163" of joint 2: within ``FEASIBILITY_TOLERANCE``
+    of a bound a solution is on it (clipped there), as a via-point is, so the pose is reached; the pose was
+    "not reached within the joint ranges" (sweep 16)."""
+    q = np.deg2rad([60, 45, -45, 20, 100, 40])
+    assert q[1] > puma.limits.upper[1] and q[2] < puma.limits.lower[2]  # just past both, by < 1e-9 rad
+    variants = turn_variants(puma, q, puma.limits)
+    assert len(variants) and all(within_ranges(puma, v) for v in variants)
+    start = puma.forward_kinematics(np.deg2rad([10, -30, 45, 5, 10, 6]))
+    solutions = solve_waypoints(puma, [start, puma.forward_kinematics(q)])
+    assert np.abs(solutions[1].q - q).max() <= 1e-9 and within_ranges(puma, solutions[1].q)
+    assert solutions[1].q[1] == puma.limits.upper[1]

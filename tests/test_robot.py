@@ -226,9 +226,12 @@ def test_prismatic_joints_in_the_planned_chain_are_refused(tmp_path):
         Robot.from_example_robot_data("tiago_no_hand", "arm_tool_link")
 
 
-def test_continuous_joints_are_refused():
-    with pytest.raises(RobotError, match=r"joint '.*' of robot 'double_pendulum_continuous' is a JointModelRUBX; "
-                                         r"only revolute joints"):
+def test_continuous_joints_are_refused_in_urdf_terms_with_the_remedy():
+    """Named by Pinocchio's class alone ("is a JointModelRUBZ"), with no remedy (sweep 16)."""
+    with pytest.raises(RobotError, match=r"joint '.*' of robot 'double_pendulum_continuous' is continuous \(a revolute "
+                                         r"joint without position limits, JointModelRUBX\); only revolute joints with "
+                                         r"limits are supported: in the URDF, give it type=\"revolute\" and "
+                                         r"<limit lower=... upper=...>$"):
         Robot.from_example_robot_data("double_pendulum_continuous")
 
 
