@@ -166,7 +166,7 @@ class Robot:
         problem = _bad_mass(path) or (f"an element the URDF parser skipped{_detail(parser_log)}" if swallowed else "")
         if problem:
             raise RobotFileError(f"cannot load URDF {path}: {problem}", path=path)
-        extra = _read_limit_file(path.with_suffix(".limits.yaml"), model)
+        extra = _read_limit_file(path.with_suffix(".limits.yaml"))
         return cls._build(model.name or path.stem, model, tool_frame, path, tuple(folders), extra)
 
     @classmethod
@@ -240,8 +240,8 @@ class Robot:
         if reduced.nq == 0:
             raise UnsupportedRobotError(f"frame {tool_frame!r} of robot {shown(name)} is not moved by any joint")
         _check_placements(reduced, name, Path(urdf_path))
-        extra_limits = {quantity: np.array([values[reduced.names[j]] for j in range(1, reduced.njoints)])
-                        for quantity, values in extra_limits.items()}
+        extra_limits = _file_limits(Path(urdf_path).with_suffix(".limits.yaml"), extra_limits,
+                                    list(reduced.names[1:]), list(model.names[1:]))
         velocity = np.where(reduced.velocityLimit > 0, reduced.velocityLimit, np.inf)
         lower = np.where(np.isfinite(reduced.lowerPositionLimit), reduced.lowerPositionLimit, -np.inf)
         upper = np.where(np.isfinite(reduced.upperPositionLimit), reduced.upperPositionLimit, np.inf)
@@ -439,9 +439,9 @@ def _detail(log: list[str]) -> str:
     return f" ({line})" if line else ""
 
 
-def _read_limit_file(path: Path, model: pin.Model) -> dict[str, dict[str, float]]:
-    """Acceleration and jerk limits of ``<robot>.limits.yaml``: one value [deg/s^2, deg/s^3] per joint
-    of ``model``, in file order; returned in SI by quantity and joint name. {} if there is no file."""
+def _read_limit_file(path: Path) -> dict[str, object]:
+    """The lists of ``<robot>.limits.yaml`` by key, as written ({} if there is no file); checked against the
+    joints by ``_file_limits`` once the planned chain is known."""
     if not os.path.lexists(path):
         return {}
     if not path.is_file():
@@ -459,21 +459,32 @@ def _read_limit_file(path: Path, model: pin.Model) -> dict[str, dict[str, float]
     for key in data:
         if key not in _LIMIT_FILE_KEYS:
             raise RobotFileError(f"limits file {path}: unknown key {shown(key)}; expected {keys}", path=path)
-    joints = [model.names[j] for j in range(1, model.njoints)]
+    return data
+
+
+def _file_limits(path: Path, data: dict[str, object], chain: list[str], every: list[str]) -> dict[str, np.ndarray]:
+    """Acceleration and jerk limits [rad/s^2, rad/s^3] of the planned ``chain``'s joints from a limits
+    file's lists ``data`` [deg/s^2, deg/s^3]: one value per joint of the chain, or per joint of the
+    whole URDF (``every``, locked ones too: a gripper's fingers), in order."""
     limits = {}
     for key, quantity in _LIMIT_FILE_KEYS.items():
         if key not in data:
             continue
         values = data[key]
-        if not isinstance(values, list) or len(values) != len(joints):
-            raise RobotFileError(f"limits file {path}: {key} must be a list of {len(joints)} positive numbers, one "
-                                 f"per joint ({', '.join(joints)}), got {shown(values)}", path=path)
+        layouts = [chain] + ([every] if len(every) != len(chain) else [])
+        joints = next((names for names in layouts if isinstance(values, list) and len(values) == len(names)), None)
+        if joints is None:
+            whole = f", or {len(every)}, one per joint of the URDF ({', '.join(every)})" if len(layouts) > 1 else ""
+            raise RobotFileError(f"limits file {path}: {key} must be a list of {len(chain)} positive numbers, one "
+                                 f"per joint ({', '.join(chain)}){whole}, got {shown(values)}", path=path)
+        assert isinstance(values, list)
         low, high = LIMIT_DEG_RANGE
         for joint, value in zip(joints, values):
             if not positive_finite(value) or not low <= value <= high:
                 raise RobotFileError(f"limits file {path}: {key} of joint {joint!r} must be a number >= {low:g} and "
                                      f"<= {high:g}, got {shown(value)}", path=path)
-        limits[quantity] = {joint: math.radians(value) for joint, value in zip(joints, values)}
+        by_name = dict(zip(joints, values))
+        limits[quantity] = np.radians([by_name[joint] for joint in chain])
     return limits
 
 

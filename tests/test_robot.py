@@ -470,3 +470,25 @@ def test_package_dirs_that_are_no_folders_are_named(package_dirs):
 def test_one_package_folder_may_be_given_alone():
     robot = Robot.from_urdf(ROOT / "robots" / "puma560.urdf", None, package_dirs=str(ROOT / "robots"))
     assert robot.package_dirs == (str(ROOT / "robots"),)
+
+
+def test_a_limits_file_gives_the_planned_joints_or_every_joint_of_the_urdf(tmp_path):
+    """A gripper's fingers are locked, so a limits file may leave them out; one with a value per joint of
+    the URDF (fingers too) still reads. It had to list the fingers, in deg/s^2 (sweep 16)."""
+    fingers = "".join(f'<link name="finger{k}"/><joint name="finger{k}" type="prismatic"><parent link="tool"/>'
+                      f'<child link="finger{k}"/><axis xyz="0 1 0"/><limit lower="0" upper="0.04" velocity="0.1" '
+                      f'effort="20"/></joint>' for k in (1, 2))
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text(PUMA.read_text().replace("</robot>", fingers + "</robot>"))
+    limits = tmp_path / "arm.limits.yaml"
+    planned = [10, 20, 30, 40, 50, 60]
+    for values in (planned, planned + [1, 2]):
+        limits.write_text(f"acceleration_deg_s2: {values}\njerk_deg_s3: {[3 * v for v in values]}\n")
+        robot = Robot.from_urdf(urdf, "tool")
+        np.testing.assert_allclose(np.rad2deg(robot.limits.acceleration), planned)
+        np.testing.assert_allclose(np.rad2deg(robot.limits.jerk), [3 * v for v in planned])
+    limits.write_text("acceleration_deg_s2: [10, 20, 30]\n")
+    with pytest.raises(RobotFileError, match=r"acceleration_deg_s2 must be a list of 6 positive numbers, one per joint "
+                                             r"\(joint1, .*, joint6\), or 8, one per joint of the URDF \(joint1, .*, "
+                                             r"finger2\), got \[10, 20, 30\]$"):
+        Robot.from_urdf(urdf, "tool")
