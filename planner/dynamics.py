@@ -35,6 +35,7 @@ each made to meet the limits here.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -339,10 +340,12 @@ def holds_still(robot: Robot, torque_limit: np.ndarray, q: np.ndarray) -> bool:
     return not bool(np.any(np.abs(gravity_torques(robot, np.asarray(q, dtype=float)[None])[0]) > torque_limit))
 
 
-def check_resting_ends(robot: Robot, torque_limit: np.ndarray, via_points: np.ndarray) -> None:
+def check_resting_ends(robot: Robot, torque_limit: np.ndarray, via_points: np.ndarray,
+                       remedy: Callable[[int], str] | None = None) -> None:
     """Refuse via-points (n, J) [rad] at whose first or last the torque limits (J,) [N m] cannot hold the
     arm: every family starts and ends at rest, so the torque there is gravity's alone, g(q), whatever
-    the timing (checked before it, not after).
+    the timing (checked before it, not after). ``remedy(i)``, for the via-point i refused (0 or n - 1),
+    says what to change (default: the limit or the waypoint).
 
     Raises:
         InfeasibleError: naming the joint, the waypoint (first or last), g and the limit.
@@ -354,7 +357,8 @@ def check_resting_ends(robot: Robot, torque_limit: np.ndarray, via_points: np.nd
                                       over.shape)
         raise _held_still_beyond(robot, int(joint), float(gravity[end, joint]), float(torque_limit[joint]),
                                  f"the {'first' if end == 0 else 'last'} waypoint, where the trajectory rests",
-                                 ": no timing helps; raise limits.torque_nm or move the waypoint")
+                                 ": no timing helps; " + (remedy(0 if end == 0 else len(via_points) - 1) if remedy
+                                                          else "raise limits.torque_nm or move the waypoint"))
 
 
 def _no_common_slow_down(robot: Robot, check: RobotLimitCheck, gravity: np.ndarray, limit: np.ndarray,

@@ -335,8 +335,9 @@ def _distinct(robot: Robot, q: np.ndarray, others: list[IKSolution]) -> bool:
 def pose_solutions(robot: Robot, target: pin.SE3, limits: JointLimits, rng: np.random.Generator, *,
                    starts: int = SOLUTION_STARTS, accept: float = 1e-9,
                    closed_form: bool = True) -> tuple[list[IKSolution], IKSolution, int]:
-    """The distinct solutions of one pose within the ranges of ``limits``, the best solve
-    (lowest residual, for an error message when there is none) and the solves used.
+    """The distinct solutions of one pose within the ranges of ``limits``, the best solve (for an error
+    message when there is none: of those that reach the pose, the one least outside the ranges, else the
+    lowest residual) and the solves used.
 
     With a closed-form solver (``closed_form_solver``; ``closed_form`` False: the numeric search
     regardless, for comparisons) these are its solutions, each refined
@@ -367,8 +368,11 @@ def pose_solutions(robot: Robot, target: pin.SE3, limits: JointLimits, rng: np.r
             inside = solution.residual <= accept and turn_variant_count(robot, solution.q, limits) > 0
         if inside and robot.model.nv > 6:
             solution = centred(robot, target, _widest_variant(robot, solution, limits), limits, accept)
-        if best is None or (inside, -solution.residual) > (best[0], -best[1].residual):
-            best = (inside, solution)
+        rank = (inside, solution.residual <= accept,
+                -_range_excess(robot, solution.q, limits)[0] if solution.residual <= accept else 0.0,
+                -solution.residual)
+        if best is None or rank > best[0]:
+            best = (rank, solution)
         if inside and _distinct(robot, solution.q, found):
             found.append(solution)
             if len(found) == MAX_SOLUTIONS:
@@ -461,6 +465,18 @@ def solve_waypoints(robot: Robot, poses: list[pin.SE3], *, hints: list[np.ndarra
     return _continuous_branch(robot, poses, hints, start, limits or robot.limits, rng, restarts, accept, report)
 
 
+def _range_excess(robot: Robot, q: np.ndarray, limits: JointLimits) -> tuple[float, int, np.ndarray]:
+    """How far [rad or m] configuration ``q`` is outside the ranges of ``limits`` (<= 0: inside), the
+    joint furthest outside, and ``q`` with each revolute joint turned by 2 pi nearest its range's middle."""
+    lower, upper = limits.lower, limits.upper
+    finite = np.isfinite(lower) & np.isfinite(upper)
+    middle = (np.where(finite, lower, 0.0) + np.where(finite, upper, 0.0)) / 2
+    turned = np.where(robot.revolute, q + 2 * np.pi * np.round((middle - q) / (2 * np.pi)), q)
+    excess = np.maximum(lower - turned, turned - upper)
+    j = int(np.argmax(excess))
+    return float(excess[j]), j, turned
+
+
 def _unreached(robot: Robot, limits: JointLimits, index: int, attempts: int, best: IKSolution,
                accept: float) -> IKError:
     """The error for waypoint ``index`` without a solution in the ranges. Where the best solve reached
@@ -470,13 +486,12 @@ def _unreached(robot: Robot, limits: JointLimits, index: int, attempts: int, bes
         return IKError(f"{said}; best residual {best.position_error:.3g} m, "
                        f"{np.rad2deg(best.orientation_error):.3g} deg", waypoint=index, residual=best.residual)
     lower, upper = limits.lower, limits.upper
-    middle = np.where(np.isfinite(lower) & np.isfinite(upper), (lower + upper) / 2, 0.0)
-    q = np.where(robot.revolute, best.q + 2 * np.pi * np.round((middle - best.q) / (2 * np.pi)), best.q)
-    below, above = lower - q, q - upper
-    j = int(np.argmax(np.maximum(below, above)))
-    value, bound = in_degrees_apart(q[j], lower[j] if below[j] > above[j] else upper[j], 0)
-    side = "lower" if below[j] > above[j] else "upper"
-    return IKError(f"{said}: the pose is reachable, but outside the ranges: a solution puts joint "
+    _, j, q = _range_excess(robot, best.q, limits)
+    below = q[j] < lower[j]
+    value, bound = in_degrees_apart(q[j], lower[j] if below else upper[j], 0)
+    side = "lower" if below else "upper"
+    return IKError(f"{said}: the pose is reachable, but outside the ranges: the solution found nearest them puts "
+                   f"joint "
                    f"{robot.joint_names[j]} at {value}, beyond its {side} limit {bound}", waypoint=index,
                    residual=best.residual)
 
@@ -549,6 +564,16 @@ def _hinted(robot, target, hint, limits, rng, accept, index) -> tuple[list[IKSol
              "%d solutions to the hint is taken, %.3g deg from it", index, best.position_error,
              np.rad2deg(best.orientation_error), len(every), np.rad2deg(np.linalg.norm(q - hint)))
     return [replace(nearest, q=q)], nearest, 1 + attempts
+
+
+def resting_solutions(robot: Robot, target: pin.SE3, limits: JointLimits, rests: Callable[[np.ndarray], bool],
+                      seed: int = 0) -> tuple[np.ndarray, int]:
+    """Of the distinct solutions of pose ``target`` within the ranges of ``limits`` (``pose_solutions``),
+    those (m, nq) [rad] at which ``rests(q)`` (the arm can rest there), each turned by 2 pi to its widest
+    margin to the ranges, and how many solutions there are in all."""
+    found, _, _ = pose_solutions(robot, target, limits, np.random.default_rng(seed))
+    turned = [_widest_variant(robot, solution, limits).q for solution in found]
+    return np.array([q for q in turned if rests(q)]).reshape(-1, robot.dof), len(found)
 
 
 def described(robot: Robot, poses: list[pin.SE3], configurations: np.ndarray, limits: JointLimits,

@@ -37,7 +37,7 @@ from .errors import (
     TaskError,
 )
 from .export import coefficients_document, json_ready, write_json, write_trajectory_csv
-from .ik import IKSolution, described, pose_from_position_quaternion, solve_waypoints
+from .ik import IKSolution, described, pose_from_position_quaternion, resting_solutions, solve_waypoints
 from .kinematics import KinematicFigures, Violation, continuity_breaks, kinematic_figures, via_point_misses
 from .limits import (
     LIMITED,
@@ -523,6 +523,25 @@ def _on_bound_hint(problem: TimingProblem, violations: list[Violation]) -> str:
             f"trajectory.family: hermite7, whose via-point velocities the optimizer chooses (it can stop there)")
 
 
+def _resting_remedy(robot: Robot, task: Task, poses: list, limits: JointLimits, torque: np.ndarray,
+                    via_index: int) -> str:
+    """What to change where gravity alone breaks a torque limit at the configuration chosen for the first
+    or last waypoint of a Cartesian task (``via_index`` 0 or not): another IK solution of its pose that
+    the limits hold still, where one is, else the limit or the pose."""
+    waypoint = 0 if via_index == 0 else len(poses) - 1
+    resting, count = resting_solutions(robot, poses[waypoint], limits, partial(holds_still, robot, torque),
+                                       task.ik.seed)
+    if not len(resting):
+        return (f"none of the {count} IK solutions of waypoint {waypoint}'s pose within the joint ranges holds still "
+                f"within the limits either: raise limits.torque_nm or move the waypoint")
+    hinted = task.cartesian_waypoints is not None and task.cartesian_waypoints[waypoint].hint is not None
+    optimal = ", or choose ik.branch: optimal" if task.ik.branch == "continuous" and not hinted else ""
+    return (f"{len(resting)} of the {count} IK solutions of waypoint {waypoint}'s pose within the joint ranges "
+            f"{'holds' if len(resting) == 1 else 'hold'} still within the limits: give "
+            f"{'it' if len(resting) == 1 else 'one'} as waypoints.cartesian[{waypoint}].hint_deg, such as "
+            f"{np.round(np.rad2deg(resting[0]), 4).tolist()}{optimal}")
+
+
 def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
     """Plan a task and return the result (nothing written; ``PlanResult.save`` writes it).
 
@@ -603,7 +622,8 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         progress.label = f"timing {len(points)} via-points{what} ({task.family}, {settings['algorithm']})"
         if torque is not None:
             assert robot is not None
-            check_resting_ends(robot, torque, points)
+            remedy = None if poses is None else partial(_resting_remedy, robot, task, poses, limits, torque)
+            check_resting_ends(robot, torque, points, remedy)
         problem = TimingProblem(points, task.family, limits, bounds=settings["bounds"],
                                 objective=settings["objective"], weights=settings["weights"],
                                 min_duration=task.min_segment_s)

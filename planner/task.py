@@ -462,6 +462,10 @@ def _optimizer(value, path: str) -> dict:
         if key == "algorithm":
             continue
         if key == "seed":
+            if algorithm == "nlp":
+                seeded = ", ".join(name for name in OPTIMIZERS if name != "nlp")
+                raise TaskError(where, f"the nlp algorithm is deterministic and uses no seed: remove it, or choose "
+                                       f"a search that does ({seeded})")
             result["seed"] = _ranged(item, where)
         elif key == "time_limit_s":
             result["time_limit"] = float(_ranged(item, where))
@@ -622,8 +626,8 @@ def task_document(task: Task) -> dict:
         document["trajectory"] = {"family": task.family, "sample_rate_hz": task.sample_rate_hz,
                                   "min_segment_s": task.min_segment_s}
         settings = task.optimizer
-        document["optimizer"] = {"algorithm": settings["algorithm"], "seed": settings["seed"],
-                                 "time_limit_s": settings["time_limit"],
+        seeded = {"seed": settings["seed"]} if settings["algorithm"] != "nlp" else {}  # nlp refuses one
+        document["optimizer"] = {"algorithm": settings["algorithm"], **seeded, "time_limit_s": settings["time_limit"],
                                  "objective": settings["objective"], **settings["settings"]} | (
             {"weights": list(settings["weights"])} if settings["objective"] == "time-jerk" else {}) | (
             {"bounds_s": list(settings["bounds"])} if settings["bounds"] is not None else {})

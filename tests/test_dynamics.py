@@ -630,3 +630,38 @@ def test_the_optimal_rule_rests_the_arm_where_its_torque_limits_hold_it():
     for q in result.trajectory.evaluate(np.array([0.0, result.trajectory.total_time])):
         assert np.all(np.abs(pin.computeGeneralizedGravity(model, data, q)) <= [150, 20, 150, 28, 28, 28])
     assert result.summary()["ik"]["sequence_kept"] == "optimal"
+
+
+def test_a_resting_end_beyond_the_torque_limit_names_another_ik_solution_that_holds_still():
+    """The continuous rule's choice for the last waypoint needs 39.5 N m at a 20 N m shoulder: the message
+    said only "raise limits.torque_nm or move the waypoint", though 2 of the pose's 8 solutions hold still
+    (sweep 16). It now gives one as a hint, which Pinocchio's own FK and gravity confirm; with a 5 N m
+    shoulder it says none does."""
+    poses = [{"xyz_m": [0.40, -0.25, 0.35], "rpy_deg": [180, 0, 90]},
+             {"xyz_m": [0.25, 0.35, 0.40], "rpy_deg": [180, 0, 45]}]
+    torque = [150, 20, 150, 28, 28, 28]
+    task = {"version": 1, "robot": {"name": "ur5", "tool_frame": "tool0"}, "waypoints": {"cartesian": poses},
+            "ik": {"branch": "continuous"},
+            "limits": {"acceleration_deg_s2": [150, 150, 150, 300, 300, 300],
+                       "jerk_deg_s3": [600, 600, 600, 1200, 1200, 1200], "torque_nm": torque}}
+    with pytest.raises(InfeasibleError) as raised:
+        plan(task)
+    found = re.search(r"at the last waypoint, .*: no timing helps; (\d) of the 8 IK solutions of waypoint 1's pose "
+                      r"within the joint ranges hold still within the limits: give one as "
+                      r"waypoints\.cartesian\[1\]\.hint_deg, such as \[([-\d., ]+)\], or choose ik\.branch: optimal$",
+                      str(raised.value))
+    assert found, str(raised.value)
+    hint = np.deg2rad([float(value) for value in found[2].split(",")])
+    robot = Robot.from_example_robot_data("ur5", "tool0")
+    reached = robot.forward_kinematics(hint)
+    assert np.allclose(reached.translation, poses[1]["xyz_m"], atol=1e-5)
+    assert np.allclose(reached.rotation, pin.rpy.rpyToMatrix(*np.deg2rad(poses[1]["rpy_deg"])), atol=1e-5)
+    gravity = pin.computeGeneralizedGravity(robot.model, robot.model.createData(), hint)
+    assert np.all(np.abs(gravity) <= torque)
+    hinted = [poses[0], {**poses[1], "hint_deg": np.rad2deg(hint).tolist()}]
+    with pytest.raises(InfeasibleError, match=r"at the first waypoint, .*hint_deg, such as"):
+        plan({**task, "waypoints": {"cartesian": hinted}})  # the last waypoint holds; the first is next
+    weak = {**task, "limits": {**task["limits"], "torque_nm": [150, 5, 150, 28, 28, 28]}}
+    with pytest.raises(InfeasibleError, match=r"none of the 8 IK solutions of waypoint \d's pose within the joint "
+                                              r"ranges holds still within the limits either: raise"):
+        plan(weak)

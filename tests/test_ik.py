@@ -86,10 +86,26 @@ def test_a_reachable_pose_outside_narrow_ranges_names_a_joint_and_its_bound():
     narrow = robot.limits.with_overrides(lower=np.full(6, np.deg2rad(-1.0)), upper=np.full(6, np.deg2rad(1.0)))
     pose = robot.forward_kinematics(np.deg2rad([10.0, -60.0, 80.0, -100.0, -90.0, 30.0]))
     said = (r"^waypoint 0: .*the pose is reachable, but outside the ranges: "
-            r"a solution puts joint \w+ at -?[\d.]+ deg, beyond its (upper|lower) limit -?1 deg$")
+            r"the solution found nearest them puts joint \w+ at -?[\d.]+ deg, beyond its (upper|lower) limit -?1 deg$")
     with pytest.raises(IKError, match=said) as raised:
         solve_waypoints(robot, [pose, pose], limits=narrow)
     assert raised.value.waypoint == 0 and raised.value.residual <= 1e-9
+
+
+@pytest.mark.parametrize("joint", range(6))
+def test_a_pose_reachable_outside_the_ranges_names_its_solution_nearest_them(joint):
+    """Ranges of +-5 deg around one of the UR5's 8 solutions of a pose, but one joint's moved 2 deg past it: the
+    message names that joint 2 deg beyond its bound (it named another solution, 170 deg outside a range)."""
+    robot = Robot.from_example_robot_data("ur5", "tool0")
+    q = np.deg2rad([10.0, -60.0, 80.0, -100.0, -90.0, 30.0])
+    lower, upper = q - np.deg2rad(5.0), q + np.deg2rad(5.0)
+    lower[joint], upper[joint] = q[joint] + np.deg2rad(2.0), q[joint] + np.deg2rad(12.0)
+    with pytest.raises(IKError) as raised:
+        solve_waypoints(robot, [robot.forward_kinematics(q)], limits=robot.limits.with_overrides(lower=lower,
+                                                                                                  upper=upper))
+    value, bound = np.rad2deg(q[joint]), np.rad2deg(lower[joint])
+    assert str(raised.value).endswith(f"joint {robot.joint_names[joint]} at {value:.6g} deg, beyond its lower limit "
+                                      f"{bound:.6g} deg"), str(raised.value)
 
 
 @pytest.mark.parametrize("low, high", [(100.0, 120.0), (-100.0, -80.0), (500.0, 520.0)])

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from planner import TaskError, paper
-from planner.task import RANGES, load_task, make_task, parse_task
+from planner.task import RANGES, load_task, make_task, parse_task, task_document
 from planner.timing import OPTIMIZERS, setting_names
 from planner.yaml_input import MAX_FILE_BYTES, MAX_NESTING, MAX_VALUES
 
@@ -540,6 +540,16 @@ def test_weights_without_the_time_jerk_objective_are_refused(optimizer):
                    "optimizer.weights")
     jerk = parse_task(joint_task(optimizer=optimizer | {"objective": "time-jerk"}))
     assert jerk.optimizer["weights"] == tuple(float(w) for w in optimizer["weights"])
+
+
+def test_a_seed_for_the_deterministic_nlp_is_refused():
+    """It was accepted and silently unused; a task document of an nlp task holds no seed, so it reads back."""
+    assert_refused(lambda: parse_task(joint_task(optimizer={"algorithm": "nlp", "seed": 3})),
+                   "the nlp algorithm is deterministic and uses no seed", "optimizer.seed")
+    task = parse_task(joint_task(optimizer={"algorithm": "nlp"}))
+    assert "seed" not in task_document(task)["optimizer"]
+    assert parse_task(task_document(task)).optimizer == task.optimizer
+    assert parse_task(joint_task(optimizer={"algorithm": "cuckoo", "seed": 3})).optimizer["seed"] == 3
 
 
 @pytest.mark.parametrize("key", ["tolerance_m", "tolerance_deg"])
