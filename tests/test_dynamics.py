@@ -602,14 +602,14 @@ def test_a_slow_down_beyond_what_holds_gravity_back_is_refused_naming_both():
 
 def test_the_robot_rounds_warm_start_reaches_the_cold_starts_optimum(monkeypatch):
     """The robot model's rounds start from the last round's solution and multipliers with a small
-    barrier parameter (``nlp.ROBOT_IPOPT_OPTIONS``): the same optimum as IPOPT's cold start there."""
+    barrier parameter (``nlp.WARM_IPOPT_OPTIONS``): the same optimum as IPOPT's cold start there."""
     from planner.timing import nlp
 
     efforts = np.array([97.6, 186.4, 89.4, 24.2, 20.1, 21.3])
     fast = paper_task(acceleration_deg_s2=[2000] * 6, jerk_deg_s3=[20000] * 6, velocity_deg_s=[400] * 6)
     task = {**fast, "limits": {**fast["limits"], "torque_nm": (efforts / 2).tolist()}}
     warm = plan(task)
-    monkeypatch.setattr(nlp, "ROBOT_IPOPT_OPTIONS", {})
+    monkeypatch.setattr(nlp, "WARM_IPOPT_OPTIONS", {})
     cold = plan(task)
     assert warm.robot_limits.uniform_total_s is not None and cold.robot_limits.uniform_total_s is not None
     assert warm.trajectory.total_time == pytest.approx(cold.trajectory.total_time, rel=1e-7)

@@ -575,7 +575,7 @@ def test_a_kept_program_is_built_again_where_reuse_could_overrun_the_time_limit(
         assert limited._program([]) is built  # within 1 s and 10 % of the 60 s
         clock[0] += 2.0
         blocks = limited.blocks
-        assert limited._programs[()] is built  # the blocks' structure needs no program built again
+        assert limited._programs[((), False)] is built  # the blocks' structure needs no program built again
         rebuilt = limited._program([])
         assert rebuilt is not built and limited.blocks is blocks
         limited.deadline_enforced = True  # solves in processes ended at the limit: reuse whatever the clock

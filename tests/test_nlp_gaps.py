@@ -18,8 +18,8 @@ def _problem(family, segments):
 
 def test_the_nlp_settings_record_ipopts_options_without_its_output_switches():
     settings = nlp_settings(_problem("hybrid", 4), 2)
-    assert set(settings) == {"ipopt", "robot_model_rounds", "variables", "max_rounds", "flag_margin", "processes"}
-    assert settings["robot_model_rounds"] == {"warm_start_init_point": "yes", "mu_init": 1e-4}
+    assert set(settings) == {"ipopt", "warm_rounds", "variables", "max_rounds", "flag_margin", "processes"}
+    assert settings["warm_rounds"] == {"warm_start_init_point": "yes", "mu_init": 1e-4}
     expected = {key[len("ipopt."):]: value for key, value in IPOPT_OPTIONS.items()
                 if key.startswith("ipopt.") and key not in ("ipopt.print_level", "ipopt.sb")}
     assert settings["ipopt"] == expected and settings["ipopt"]["tol"] == 1e-10

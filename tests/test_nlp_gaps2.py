@@ -29,8 +29,8 @@ def _record_solves(monkeypatch, certificates: list[int] | None = None) -> list[i
     counts: list[int] = []
     build = nlp._Program.__init__
 
-    def init(self, program_nlp, program_certificates):
-        build(self, program_nlp, program_certificates)
+    def init(self, program_nlp, program_certificates, warm=False):
+        build(self, program_nlp, program_certificates, warm)
         solver, size = self.solver, len(program_certificates)
 
         class Recorder:
@@ -117,8 +117,8 @@ def _tamper_solves(monkeypatch, status: str, change):
     the solution vector and the segment count): a stand-in for a solver that fails or returns garbage."""
     build = nlp._Program.__init__
 
-    def init(self, program_nlp, certificates):
-        build(self, program_nlp, certificates)
+    def init(self, program_nlp, certificates, warm=False):
+        build(self, program_nlp, certificates, warm)
         solver, segments = self.solver, program_nlp.problem.segment_count
 
         class Tampered:
@@ -460,3 +460,46 @@ def test_robot_refine_slows_a_result_beyond_a_kinematic_limit_down_with_its_own_
             np.testing.assert_allclose(returned, expected.states[0], rtol=1e-12)
             assert problem.evaluate_states(durations[None], returned[None]).feasible[0]
             assert not np.allclose(durations, problem.evaluate(fast[None]).durations[0], rtol=1e-6)
+
+
+def test_a_later_rounds_program_starts_from_the_earlier_solution_row_by_row():
+    """A round with certificates added starts from the last round's solution and multipliers
+    (``_Program.carried``): each kept row, told apart by its value, and each kept certificate variable
+    carry over; the new ones start at the given start with zero multipliers."""
+    via = np.deg2rad(paper.VIA_POINTS_DEG)
+    limits = paper.paper_limits()
+    problem = TimingProblem(via, "hybrid", limits.with_overrides(lower=via.min(axis=0) - 0.02,
+                                                                 upper=via.max(axis=0) + 0.02))
+    optimum = nlp.TimingNLP(problem, np.full(problem.segment_count, 3.0)).solve(np.full(problem.segment_count, 3.0))
+    solver = nlp.TimingNLP(problem, optimum.durations)
+    h = optimum.durations
+    coefficients = problem.coefficients(h[None])[0]
+    every, _ = solver._certify([], coefficients, h)
+    earlier, later = every[::2], every
+    assert [c.kind for c in every[::2]].count("cubic") >= 2 and [c.kind for c in every[1::2]].count("cubic") >= 2
+    # (exact certificates with two variables each, kept and new: the ranges bind inside segments)
+    core = np.concatenate((np.log(h / solver.scales.time), solver.formulation.state_values(coefficients, h)))
+    first = solver._program(earlier)
+    solution = first.solver(x0=np.concatenate((core, solver._certificate_start(earlier, coefficients, h))),
+                            lbx=first.lbx, ubx=first.ubx, lbg=first.lbg, ubg=first.ubg, p=np.zeros(0))
+    assert first.solver.stats()["return_status"] in SOLVED
+    second = solver._program(later, warm=True)
+    given = np.concatenate((core, solver._certificate_start(later, coefficients, h)))
+    start = first.carried(solution, second, given)
+    x, lam_g = solution["x"].full().ravel(), solution["lam_g"].full().ravel()
+    g_first = first.solver.get_function("nlp_g")(x, np.zeros(0)).full().ravel()
+    g_second = second.solver.get_function("nlp_g")(start["x0"], np.zeros(0)).full().ravel()
+    np.testing.assert_allclose(g_second[second.spline_rows], g_first[first.spline_rows], rtol=1e-12, atol=1e-12)
+    np.testing.assert_array_equal(start["lam_g0"][second.spline_rows], lam_g[first.spline_rows])
+    np.testing.assert_array_equal(start["x0"][:first.core_size], x[:first.core_size])
+    for certificate in later:
+        rows, variables = second.certificate_rows[certificate], second.certificate_variables[certificate]
+        if certificate in first.certificate_rows:
+            old_rows = first.certificate_rows[certificate]
+            np.testing.assert_allclose(g_second[rows], g_first[old_rows], rtol=1e-12, atol=1e-12)
+            np.testing.assert_array_equal(start["lam_g0"][rows], lam_g[old_rows])
+            np.testing.assert_array_equal(start["x0"][variables], x[first.certificate_variables[certificate]])
+        else:
+            assert not np.any(start["lam_g0"][rows]) and not np.any(start["lam_x0"][variables])
+            np.testing.assert_array_equal(start["x0"][variables], given[variables])
+    assert sum(map(len, second.certificate_rows.values())) + len(second.spline_rows) == len(second.lbg)

@@ -715,15 +715,21 @@ Q_BASE = {"version": 1, "name": "q_base",
           "trajectory": {"family": "quintic"}, "optimizer": {"algorithm": "nlp"}}
 
 
-def test_where_no_shape_converges_the_nlp_tries_equal_durations_and_says_so():
+def test_where_no_shape_converges_the_nlp_tries_equal_durations_and_says_so(monkeypatch):
     """IPOPT stopped both shapes' starts at its iteration cap on these via-points (a sweep's case), and
-    converged 2 % lower on the same via-points shifted by 360 deg: a third start from equal durations
-    reaches that optimum, and the stop reason names the starts that did not converge."""
+    converged 2 % lower on the same via-points shifted by 360 deg. Its second round now starts warm from the
+    first's solution and multipliers, and both shapes converge to that optimum; started cold (as before),
+    a third start from equal durations reaches it, and the stop reason names the starts that did not
+    converge."""
     from planner import plan
+    from planner.timing import nlp
 
     shifted = {**Q_BASE, "waypoints": {"joints_deg": (np.array(Q_BASE["waypoints"]["joints_deg"]) + 360).tolist()}}
-    base, other = plan(Q_BASE), plan(shifted)
-    assert other.optimization.stop_reason == "NLP from 2 shapes"
+    warm, other = plan(Q_BASE), plan(shifted)
+    assert other.optimization.stop_reason == warm.optimization.stop_reason == "NLP from 2 shapes"
+    assert warm.trajectory.total_time == pytest.approx(other.trajectory.total_time, rel=1e-9)
+    monkeypatch.setattr(nlp, "WARM_IPOPT_OPTIONS", {})  # later rounds start from the last solution only
+    base = plan(Q_BASE)
     assert base.trajectory.total_time == pytest.approx(other.trajectory.total_time, rel=1e-9)
     assert [s.label for s in base.optimization.starts] == ["cruise", "stop-at-turns", "uniform"]
     assert base.optimization.stop_reason == ("NLP from 3 shapes; 2 of 3 starts did not converge (start cruise: "

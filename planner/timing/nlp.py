@@ -137,13 +137,18 @@ IPOPT_OPTIONS = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
                  "ipopt.constr_viol_tol": 1e-10, "ipopt.max_iter": 500, "ipopt.mumps_mem_percent": 50,
                  "ipopt.alpha_for_y": "safer-min-dual-infeas", "ipopt.bound_relax_factor": 0.0}
 
-#: IPOPT's settings added where the robot model's rows are in the program (``robot_rows.py``): a round
-#: that solves the same program again, with the model refitted, starts from the last round's solution
-#: and multipliers (``TimingNLP.solve``), and every solve from a barrier parameter of 1e-4 (the start is
-#: a solved timing slowed down, or the last round's). On the bundled tasks' robot-limit cases
-#: (``scripts/bench_robot_limits.py``) the totals are unchanged and IPOPT's iterations fall: PUMA with
-#: torque binding 67 -> 45, with a 0.25 m/s tool speed 143 -> 84, UR5 with torque binding 36 -> 19.
-ROBOT_IPOPT_OPTIONS = {"ipopt.warm_start_init_point": "yes", "ipopt.mu_init": 1e-4}
+#: IPOPT's settings for a round that starts from an earlier round's solution and multipliers (``TimingNLP.solve``:
+#: the same program again with the robot model refitted, or a program with certificates added, whose new
+#: rows and variables start at zero multipliers, ``_Program.carried``), and for every solve with the robot
+#: model's rows (the start is a solved timing slowed down): a barrier parameter of 1e-4. On the bundled
+#: tasks' robot-limit cases (``scripts/bench_robot_limits.py``) the totals are unchanged and IPOPT's
+#: iterations fall: PUMA with torque binding 67 -> 45, with a 0.25 m/s tool speed 143 -> 84, UR5 with
+#: torque binding 36 -> 19. The cut rounds of quintic and hermite7 (``scripts/bench_scale.py``, 8 to 64
+#: via-points, both classes, one walk each; before, each round started cold from the last solution):
+#: iterations over both starts 15-45 % fewer (hermite7 n = 64: 1597 -> 1348 smooth, 1733 -> 1440 clipped;
+#: quintic 251 -> 196, 232 -> 180), the same totals (hermite7 smooth n = 64 0.0009 % higher, the others
+#: equal to 1e-7).
+WARM_IPOPT_OPTIONS = {"ipopt.warm_start_init_point": "yes", "ipopt.mu_init": 1e-4}
 #: Random duration shapes tried where every start ends outside a position range (``_range_feasible_start``).
 RANGE_SHAPES = 50
 #: Points of each of the two grids on the way from a result out of a range to a feasible one (``_towards``).
@@ -274,7 +279,7 @@ class TimingNLP:
         feasible = not problem.uses_jerk_energy and bool(problem.evaluate_durations(reference[None]).feasible[0])
         longest = float(reference.sum()) if feasible else np.inf
         self.formulation = FORMULATIONS[family.name](family, problem.via_points, problem.limits, self.scales, longest)
-        self._programs: dict[tuple[Certificate, ...], _Program] = {}
+        self._programs: dict[tuple[tuple[Certificate, ...], bool], _Program] = {}
         self._blocks: list[SegmentBlock] | None = None
         #: The caller ends solves at the time limit itself (``_solve_all``'s processes): kept programs are
         #: reused whatever their own limit.
@@ -307,10 +312,12 @@ class TimingNLP:
         previous: tuple[_Program, dict] | None = None
         while rounds < MAX_ROUNDS:
             rounds += 1
-            program = self._program(certificates)
+            program = self._program(certificates, warm=previous is not None)
             initial = {"x0": np.concatenate((core, self._certificate_start(certificates, coefficients, h)))}
-            if frozen is not None and previous is not None and previous[0] is program:  # the model refitted
+            if previous is not None and previous[0] is program:  # the robot model refitted
                 initial = {"x0": previous[1]["x"], "lam_x0": previous[1]["lam_x"], "lam_g0": previous[1]["lam_g"]}
+            elif previous is not None:  # certificates added
+                initial = previous[0].carried(previous[1], program, initial["x0"])
             model = np.zeros(0) if frozen is None else parameters(frozen).ravel(order="F")
             with stderr_captured():  # CasADi's own warnings (an interrupted solve) stay off the terminal
                 solution = program.solver(**initial, lbx=program.lbx, ubx=program.ubx, lbg=program.lbg,
@@ -482,16 +489,17 @@ class TimingNLP:
 
     # ------------------------------------------------------------------ building
 
-    def _program(self, certificates: list[Certificate]) -> "_Program":
+    def _program(self, certificates: list[Certificate], warm: bool = False) -> "_Program":
         """The NLP with these certificates; its parameters are the robot model's numbers
         (``robot_rows.parameters``), where there is one. The ``KEPT_PROGRAMS`` last built are kept: a
         round whose certificates did not change (the robot model's rounds), or another start that
         needs the same ones, solves again without building again (0.3-0.4 s on the UR5 with torque
         rows)."""
-        key = tuple(certificates)
+        warm = warm or self.robot is not None  # every program with robot rows starts warm
+        key = (tuple(certificates), warm)
         program = self._programs.pop(key, None)
         if program is None or not (self.deadline_enforced or program.reusable()):
-            program = _Program(self, certificates)
+            program = _Program(self, certificates, warm)
             if self._blocks is None:
                 self._blocks = program.spline.blocks
         self._programs[key] = program  # the most recently used last
@@ -568,7 +576,9 @@ def _like(example, values: np.ndarray):
 class _Program:
     """One CasADi/IPOPT program: variables, constraints and their bounds."""
 
-    def __init__(self, nlp: TimingNLP, certificates: list[Certificate]):
+    def __init__(self, nlp: TimingNLP, certificates: list[Certificate], warm: bool = False):
+        """``warm``: solved from an earlier round's solution and multipliers (``carried``), or with robot
+        rows, with IPOPT's warm-start settings (``WARM_IPOPT_OPTIONS``)."""
         import casadi as ca
 
         problem, scales = nlp.problem, nlp.scales
@@ -585,11 +595,22 @@ class _Program:
             lower.append(np.full(expression.shape[0], low))
             upper.append(np.full(expression.shape[0], high))
         extra: list[Any] = []
+        row_count = sum(len(bound) for bound in lower)
+        self.spline_rows = np.arange(row_count)
+        self.core_size = segments + spline.states.shape[0]
+        #: each certificate's rows and variables (indices in g and x): a later round's program starts from
+        #: this one's solution through them (``carried``)
+        self.certificate_rows: dict[Certificate, list[int]] = {c: [] for c in certificates}
+        self.certificate_variables: dict[Certificate, list[int]] = {c: [] for c in certificates}
+        variable_count = self.core_size
         if certificates:
             f = _certified_quantities(ca, certificates, spline.blocks, h)
             for kind, chosen in _kinds(certificates):
                 p = nlp._certified_polynomials([certificates[i] for i in chosen], [_pick(ca, fk, chosen) for fk in f])
                 variables = ca.MX.sym("certificate", {"quadratic": 1, "cubic": 2}.get(kind, 0) * len(chosen))
+                for k in range(variables.shape[0]):  # a cubic's two per certificate: all a0, then all a2
+                    self.certificate_variables[certificates[chosen[k % len(chosen)]]].append(variable_count + k)
+                variable_count += variables.shape[0]
                 extra.append(variables)
                 if kind == "touch":
                     ends = np.array([certificates[i].touch for i in chosen])
@@ -603,6 +624,9 @@ class _Program:
                 else:
                     certified = p[:1]
                 rows += certified
+                for k in range(len(certified) * len(chosen)):
+                    self.certificate_rows[certificates[chosen[k % len(chosen)]]].append(row_count + k)
+                row_count += len(certified) * len(chosen)
                 lower += [np.array([certificates[i].margin for i in chosen])] * len(certified)
                 upper += [np.full(len(chosen), np.inf)] * len(certified)
         model = ca.MX.zeros(0, 1)
@@ -620,6 +644,7 @@ class _Program:
                 lower.append(np.tile(low, count))
                 upper.append(np.tile(high, count))
                 offset += count
+        self.robot_rows = np.arange(row_count, sum(len(bound) for bound in lower))
         certificate_variables = ca.vertcat(*extra) if extra else ca.MX.zeros(0, 1)
         objective = ca.sum1(h)
         if problem.uses_jerk_energy:
@@ -639,14 +664,30 @@ class _Program:
         # Not expanded to scalar form: building that costs more than it saves, with certificates too
         # (quintic, n = 128: 15.3 s expanded, 5.9 s not; hermite7 paper case 8.3 s, 2.8 s; hybrid,
         # n = 1024, without certificates: 3.5 s, 2.2 s).
-        options: dict[str, Any] = {**IPOPT_OPTIONS, **(ROBOT_IPOPT_OPTIONS if nlp.robot is not None else {}),
-                                   "expand": False}
+        options: dict[str, Any] = {**IPOPT_OPTIONS, **(WARM_IPOPT_OPTIONS if warm else {}), "expand": False}
         if remaining is not None:
             options["ipopt.max_wall_time"] = max(remaining, 1e-3)
         self.solver = ca.nlpsol("timing", "ipopt", {"x": variables, "f": objective / scales.time,
                                                     "g": ca.vertcat(*rows), "p": model}, options)
         single_threaded_blas()
         self.built = time.monotonic()
+
+    def carried(self, solution: dict, program: "_Program", x0: np.ndarray) -> dict:
+        """The start of ``program`` (a later round's, with certificates added) from this program's
+        ``solution``: its variables and multipliers where both programs have them (the spline's, the
+        robot rows', the certificates kept), ``x0``'s values and zero multipliers for the new ones."""
+        x, lam_x, lam_g = (np.asarray(solution[key], dtype=float).ravel() for key in ("x", "lam_x", "lam_g"))
+        start, start_lam_x = np.array(x0, dtype=float), np.zeros(len(x0))
+        start_lam_g = np.zeros(len(program.lbg))
+        start[:self.core_size], start_lam_x[:self.core_size] = x[:self.core_size], lam_x[:self.core_size]
+        start_lam_g[program.spline_rows] = lam_g[self.spline_rows]
+        start_lam_g[program.robot_rows] = lam_g[self.robot_rows]
+        for certificate, rows in program.certificate_rows.items():
+            if certificate in self.certificate_rows:
+                start_lam_g[rows] = lam_g[self.certificate_rows[certificate]]
+                old, new = self.certificate_variables[certificate], program.certificate_variables[certificate]
+                start[new], start_lam_x[new] = x[old], lam_x[old]
+        return {"x0": start, "lam_x0": start_lam_x, "lam_g0": start_lam_g}
 
     def reusable(self) -> bool:
         """Whether solving again keeps to the time limit: IPOPT's own limit (``max_wall_time``) counts
@@ -739,7 +780,7 @@ def nlp_settings(problem: TimingProblem, starts: int) -> dict:
     """The NLP's own settings for ``problem`` solved from ``starts`` starts, as ``summary.json`` records them."""
     return {"ipopt": {key.removeprefix("ipopt."): value for key, value in IPOPT_OPTIONS.items()
                       if key.startswith("ipopt.") and key not in ("ipopt.print_level", "ipopt.sb")},
-            "robot_model_rounds": {key.removeprefix("ipopt."): value for key, value in ROBOT_IPOPT_OPTIONS.items()},
+            "warm_rounds": {key.removeprefix("ipopt."): value for key, value in WARM_IPOPT_OPTIONS.items()},
             "variables": "log-durations and knot states", "max_rounds": MAX_ROUNDS, "flag_margin": FLAG_MARGIN,
             "processes": _processes(problem, starts)}
 
