@@ -161,7 +161,8 @@ class StraightPath(ReadOnlyArrays):
 def follow_straight_lines(robot: Robot, poses: list[pin.SE3], waypoint_q: np.ndarray,
                           time_via_points: Callable[[np.ndarray], tuple[PiecewisePolynomial, Timing]],
                           tolerance_m: float, tolerance_rad: float,
-                          note: Callable[[str], None] = lambda line: None) -> tuple[StraightPath, Timing]:
+                          note: Callable[[str], None] = lambda line: None,
+                          least_duration: tuple[float, str] = (0.0, "")) -> tuple[StraightPath, Timing]:
     """Insert poses until the timed trajectory's tool stays on the straight segments.
 
     Args:
@@ -170,6 +171,9 @@ def follow_straight_lines(robot: Robot, poses: list[pin.SE3], waypoint_q: np.nda
             else the caller keeps (returned with the path, for the final via-points).
         tolerance_m, tolerance_rad: the largest distance [m] and angle [rad] allowed.
         note: told one line per round: how far the tool strays and what happens next.
+        least_duration: the shortest segment the timing allows [s] and the task key that sets it
+            (``trajectory.min_segment_s`` or ``optimizer.bounds_s``): where the segments between the
+            closest poses last no longer, a refusal names it.
 
     Raises:
         IKError: a segment that leaves the reachable workspace, or that no joint
@@ -211,7 +215,8 @@ def follow_straight_lines(robot: Robot, poses: list[pin.SE3], waypoint_q: np.nda
             local = k - waypoint_via[i]
             if fractions[i][local + 1] - fractions[i][local] < 2 * MIN_FRACTION:  # no closer pose can help here:
                 _name_jump(robot, poses, fractions, configurations)  # a jump elsewhere may be why, not the tolerance
-            _insert(robot, poses, i, local, fractions[i], configurations[i], distance[k], angle[k])
+            held = _at_least_duration(trajectory, k, least_duration)
+            _insert(robot, poses, i, local, fractions[i], configurations[i], distance[k], angle[k], held)
     k = int(np.argmax(np.maximum(distance / tolerance_m, angle / tolerance_rad)))
     i = int(np.searchsorted(waypoint_via, k, side="right") - 1)
     raise IKError(f"path segment {i} (waypoint {i} -> {i + 1}): the tool still strays {1e3 * distance[k]:.3g} mm "
@@ -223,24 +228,45 @@ def follow_straight_lines(robot: Robot, poses: list[pin.SE3], waypoint_q: np.nda
 JUMP_RAD = np.deg2rad(1.0)
 
 
-def _why_not_followed(robot: Robot, before: np.ndarray, after: np.ndarray) -> str:
+def _at_least_duration(trajectory: PiecewisePolynomial, interval: int,
+                       least_duration: tuple[float, str]) -> tuple[float, str] | None:
+    """``least_duration`` ([s], its key) where a segment between via-points ``interval`` and
+    ``interval + 1`` of ``trajectory`` lasts no longer (to 1e-6 of it), else None."""
+    if least_duration[0] <= 0:
+        return None
+    times = trajectory.via_times
+    starts = trajectory.knot_times[:-1]
+    inside = (starts >= times[interval]) & (starts < times[interval + 1])
+    return least_duration if np.any(trajectory.durations[inside] <= least_duration[0] * (1 + 1e-6)) else None
+
+
+def _why_not_followed(robot: Robot, before: np.ndarray, after: np.ndarray,
+                      held: tuple[float, str] | None = None) -> str:
     """Why no inserted pose brings the tool closer between two neighbouring configurations [rad]:
     the joints jump there (another IK branch or 2 pi turn, a singularity, a range bound), or they
-    barely move (the tolerance is finer than the timed motion between close via-points can keep)."""
+    barely move: the timing holds the segments there at their least duration ``held`` ([s], key; each
+    inserted pose adds one, and the spline overshoots the slow, crowded stretch), or the tolerance
+    is finer than the timed motion between close via-points can keep."""
     change = np.abs(after - before)
     joint = int(np.argmax(change))
     if change[joint] > JUMP_RAD:
         return (f"the joint motion jumps there (joint {robot.joint_names[joint]!r} by "
                 f"{np.rad2deg(change[joint]):.3g} deg between the two closest poses: another IK branch or 2 pi "
                 f"turn, a singularity or a joint range bound on the line)")
-    return (f"the joints barely move there (at most {np.rad2deg(change[joint]):.3g} deg between the two closest "
-            f"poses): the tolerance is finer than the timed motion keeps; allow a larger path.tolerance_m "
-            f"or path.tolerance_deg")
+    said = f"the joints barely move there (at most {np.rad2deg(change[joint]):.3g} deg between the two closest poses)"
+    if held is not None:
+        return (f"{said}, and the timing holds the segments there at their least duration, {held[0]:.6g} s "
+                f"({held[1]}): each pose inserted adds such a segment, and the spline overshoots the slow, crowded "
+                f"stretch; lower that least duration")
+    return f"{said}: the tolerance is finer than the timed motion keeps; allow a larger path.tolerance_m or " \
+           f"path.tolerance_deg"
 
 
 def _insert(robot: Robot, poses: list[pin.SE3], segment: int, local: int, fractions: list[float],
-            configurations: list[np.ndarray], distance: float, angle: float) -> None:
-    """Insert the pose halfway between poses ``local`` and ``local + 1`` of ``segment``.
+            configurations: list[np.ndarray], distance: float, angle: float,
+            held: tuple[float, str] | None = None) -> None:
+    """Insert the pose halfway between poses ``local`` and ``local + 1`` of ``segment`` (``held``: the
+    least duration the timing holds the segments there at, or None; ``_why_not_followed``).
 
     Raises:
         IKError: the poses are already ``MIN_FRACTION`` close, or the line leaves the workspace there.
@@ -250,7 +276,7 @@ def _insert(robot: Robot, poses: list[pin.SE3], segment: int, local: int, fracti
     if high - low < 2 * MIN_FRACTION:
         raise IKError(f"{_where(poses, segment, (low + high) / 2)}: the tool strays {1e3 * distance:.3g} mm and "
                       f"{np.rad2deg(angle):.3g} deg from the straight line however close the poses; "
-                      f"{_why_not_followed(robot, before, after)}", waypoint=segment)
+                      f"{_why_not_followed(robot, before, after, held)}", waypoint=segment)
     fractions.insert(local + 1, (low + high) / 2)
     configurations.insert(local + 1, _pose_between(robot, poses, segment, low, high, before, after))
 

@@ -41,6 +41,8 @@ def _plan(args) -> int:
     from .task import load_task
     progress = TerminalProgress("optimizing", quiet=args.quiet)
     task = load_task(args.task)  # a missing or malformed task is named before the output folder's state
+    if args.out is None:  # beside other tasks' outputs and the reproduction's (out/reproduce), not over them
+        args.out = str(Path("out") / Path(args.task).stem)
     # The writers first: forked before the output folder is locked, they do not hold its lock.
     with output_writers() as writers, output_folder(args.out, force=args.force, files=OUTPUT_FILES) as staging:
         result = plan(task, progress=progress)
@@ -210,9 +212,9 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(dest="command")
     plan = commands.add_parser("plan", help="plan a task file and write the outputs")
     plan.add_argument("task", help="YAML task file")
-    plan.add_argument("--out", default="out", action=_Once,
-                      help="output folder (default: out); created if absent, refused if it holds files the planner "
-                           "did not write (see --force)")
+    plan.add_argument("--out", action=_Once,
+                      help="output folder (default: out/TASK, TASK the task file's name without its extension); "
+                           "created if absent, refused if it holds files the planner did not write (see --force)")
     plan.add_argument("--force", action="store_true",
                       help="write into a folder of other files: the planner's files are replaced, the rest kept")
     plan.add_argument("--quiet", action="store_true", help="print nothing on success")

@@ -12,7 +12,9 @@ before any work is done:
   files published there with the size and modification time each had then,
   and nothing else. A listed file that has changed since (edited, replaced,
   or a marker copied or written by hand beside other files) is not the
-  planner's. Any other folder is refused unless
+  planner's; nor, to a run that names the files it writes, is a listed file
+  of another name (a plan's outputs where a reproduction goes: replacing the
+  folder whole would delete them). Any other folder is refused unless
   ``force`` is given: then the outputs are moved into it one file at a time
   (each move atomic), replacing files of the same names and keeping every
   other file; a folder where an output file goes is refused (checked before
@@ -83,8 +85,8 @@ def absolute_path(path, what: str) -> Path:
         raise OutputError(f"{what} {shown(text)}: {getattr(exc, 'strerror', None) or exc}") from None
     if not utf8_path(absolute):
         raise OutputError(f"{what} {shown(str(absolute))}: "
-                          + not_utf8(absolute, "Rerun writes recordings and screenshots at UTF-8 paths only: choose "
-                                               "another"))
+                          + not_utf8(absolute, "the planner writes at UTF-8 paths only (Rerun, which writes its "
+                                               "recordings and screenshots, takes no others): choose another"))
     return absolute
 
 
@@ -185,8 +187,10 @@ def _plain_name(name: str) -> bool:
             and name.isprintable())
 
 
-def check_output_folder(path, *, force: bool = False) -> tuple[Path, bool]:
+def check_output_folder(path, *, force: bool = False, files: Iterable[str] = ()) -> tuple[Path, bool]:
     """Check ``path`` as an output folder before any work (the rules in the module docstring).
+    ``files``: the names this run writes, where known: the planner's files of other names there (another
+    command's outputs, a reproduction's beside a plan's) are then kept, as if a user's.
 
     Returns:
         The absolute folder, and whether the outputs must be merged into it file by file.
@@ -198,12 +202,18 @@ def check_output_folder(path, *, force: bool = False) -> tuple[Path, bool]:
     folder = absolute_path(path, "output folder")
     _check_force(force)
     try:
-        return _check_folder(folder, force)
+        return _check_folder(folder, force, set(files))
     except OSError as exc:  # a name too long, an unreadable ancestor
         raise OutputError(f"output folder {shown(str(folder))}: {exc.strerror or exc}") from None
 
 
-def _check_folder(folder: Path, force: bool) -> tuple[Path, bool]:
+def _own_files(folder: Path, files: set[str]) -> set[str] | None:
+    """``_planner_files`` of ``folder`` that this run writes (all, where ``files`` is empty: not known)."""
+    owned = _planner_files(folder)
+    return owned & files if owned is not None and files else owned
+
+
+def _check_folder(folder: Path, force: bool, files: set[str]) -> tuple[Path, bool]:
     """``check_output_folder`` for an absolute ``folder``."""
     if folder == Path(folder.anchor):
         raise OutputError(f"output folder {folder} is the filesystem's root; give a folder of its own")
@@ -215,9 +225,16 @@ def _check_folder(folder: Path, force: bool) -> tuple[Path, bool]:
     if not os.access(folder, os.W_OK | os.X_OK):
         raise OutputError(f"output folder {folder} is not writable")
     present = _listing(folder)
-    owned = _planner_files(folder)  # None: no marker, or a marker that is not the planner's (a folder, say)
+    owned = _own_files(folder, files)  # None: no marker, or a marker that is not the planner's (a folder, say)
     foreign = present - (owned or set()) - ({MARKER} if owned is not None else set())
     if foreign and not force:
+        other = (_planner_files(folder) or set()) & foreign
+        if other:
+            names = ", ".join(sorted(other)[:5]) + (", ..." if len(other) > 5 else "")
+            raise OutputError(f"output folder {folder} holds outputs the planner wrote that this run does not write "
+                              f"({shown(names)}: another command's, a plan's or a reproduction's), which it would "
+                              f"replace; give another folder, or add --force to write beside them (files of the "
+                              f"same names are replaced, others kept)")
         if owned is None and _older_marker(folder):
             raise OutputError(f"output folder {folder} was written by an older version of the planner, whose marker "
                               f"({MARKER}) does not record what it wrote; give a new folder, or add --force to "
@@ -339,12 +356,24 @@ def _stale_staging(place: Path, name: str) -> list[Path]:
             and entry.is_dir() and not entry.is_symlink() and (entry / STAGING_MARKER).is_file()]
 
 
-def _write_marker(staging: Path) -> set[str]:
-    """Write the marker listing every file in ``staging`` with its ``_signature`` (moves keep both);
-    returns the names."""
+def _write_marker(staging: Path, kept: dict[str, list[int]] | None = None) -> set[str]:
+    """Write the marker listing every file in ``staging`` with its ``_signature`` (moves keep both), and
+    the ``kept`` entries of the marker of the folder written into (the planner's files there that this
+    run does not write); returns the names written."""
     files = {entry.name: _signature(entry) for entry in sorted(staging.iterdir())}
-    (staging / MARKER).write_text(json.dumps({"written_by": "planner", "files": files}) + "\n")
+    document = {"written_by": "planner", "files": {**(kept or {}), **files}}
+    (staging / MARKER).write_text(json.dumps(document) + "\n")
     return set(files)
+
+
+def _other_entries(folder: Path, files: tuple[str, ...]) -> dict[str, list[int]]:
+    """The marker entries of ``folder``'s files the planner wrote, still as written, that a run writing
+    ``files`` does not write (another command's outputs, kept where it writes beside them)."""
+    if not files or not folder.is_dir():
+        return {}
+    others = (_planner_files(folder) or set()) - set(files)
+    entries = _marker(folder).get("files", {})
+    return {name: entries[name] for name in sorted(others) if (folder / name).is_file()}
 
 
 @contextmanager
@@ -352,7 +381,8 @@ def output_folder(path, *, force: bool = False, files: Iterable[str] = ()) -> It
     """Check and lock ``path``, yield an empty staging folder, and publish it when the block succeeds.
 
     ``files``: the names the block will write, if known, so that a folder of one of these names in
-    a folder written into with ``force`` is refused before the work rather than at publishing.
+    a folder written into with ``force`` is refused before the work rather than at publishing, and
+    the planner's files of other names there (another command's outputs) are kept, as if a user's.
 
     Enter it before the work that produces the outputs: a bad path fails before
     any computation, and the lock covers the whole run. On any exception
@@ -363,7 +393,8 @@ def output_folder(path, *, force: bool = False, files: Iterable[str] = ()) -> It
         OutputError: ``check_output_folder``'s errors, another process writing the same folder, or the
             system refusing to write the outputs (a full disk, a quota).
     """
-    folder, in_place = check_output_folder(path, force=force)
+    files = tuple(files)
+    folder, in_place = check_output_folder(path, force=force, files=files)
     created = _missing_parents(folder)
     lock = _Lock(folder)
     try:
@@ -377,7 +408,7 @@ def output_folder(path, *, force: bool = False, files: Iterable[str] = ()) -> It
         stale_places = [folder.parent] + ([folder] if folder.is_dir() else [])  # beside it, or inside (--force)
         for stale in (found for place in stale_places for found in _stale_staging(place, folder.name)):
             shutil.rmtree(stale, ignore_errors=True)
-        folder, in_place = check_output_folder(folder, force=force)  # again, now that we hold the lock
+        folder, in_place = check_output_folder(folder, force=force, files=files)  # again, now that we hold the lock
         if in_place and folder.exists():
             _check_no_folder_in_the_way(folder, files)
         base = folder if in_place and folder.exists() else folder.parent
@@ -397,12 +428,12 @@ def output_folder(path, *, force: bool = False, files: Iterable[str] = ()) -> It
         check_interrupted()  # an interruption a library swallowed must not publish half a run
         # Again: while this run worked, another may have written into DIR (its own --out DIR/sub, say);
         # swapping DIR out whole would delete that. Refused now, or (--force) merged file by file.
-        in_place = in_place or check_output_folder(folder, force=force)[1]
+        in_place = in_place or check_output_folder(folder, force=force, files=files)[1]
         (staging / STAGING_MARKER).unlink()
-        written = _write_marker(staging)
+        written = _write_marker(staging, _other_entries(folder, files) if in_place else None)
         if in_place:
             folder.mkdir(exist_ok=True)
-            _publish_in_place(staging, folder, (_planner_files(folder) or set()) - written)
+            _publish_in_place(staging, folder, (_own_files(folder, set(files)) or set()) - written)
         else:
             _publish_whole(staging, folder)
         published = True

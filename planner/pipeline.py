@@ -37,7 +37,14 @@ from .errors import (
     TaskError,
 )
 from .export import coefficients_document, json_ready, write_json, write_trajectory_csv
-from .ik import IKSolution, described, pose_from_position_quaternion, resting_solutions, solve_waypoints
+from .ik import (
+    IKSolution,
+    closed_form_solver,
+    described,
+    pose_from_position_quaternion,
+    resting_solutions,
+    solve_waypoints,
+)
 from .kinematics import KinematicFigures, Violation, continuity_breaks, kinematic_figures, via_point_misses
 from .limits import (
     LIMITED,
@@ -194,7 +201,10 @@ class PlanResult:
                 summary["robot_limits"]["rotor_inertia_kg_m2"] = self.robot.model.armature.tolist()
                 summary["robot_limits"]["bodies_without_inertia"] = bodies_without_inertia(self.robot)
         if self.ik is not None:
-            summary["ik"] = {"branch": self.task.ik.branch, "sequence_kept": self.branch_kept,
+            assert self.robot is not None  # Cartesian waypoints need a robot
+            solver = "closed form" if closed_form_solver(self.robot) is not None else "numeric"
+            summary["ik"] = {"branch": self.task.ik.branch, "solver": solver, "seed": self.task.ik.seed,
+                             "sequence_kept": self.branch_kept,
                              "timed_sequences_s": self.branch_times, "waypoints": [
                 {"waypoint": i, "position_error_m": s.position_error, "orientation_error_rad": s.orientation_error,
                  "attempts": s.attempts, "solutions": s.solutions, "chosen_solution": s.chosen,
@@ -679,8 +689,11 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         assert robot is not None
 
         def follow(points: np.ndarray):
+            least = (task.min_segment_s, "trajectory.min_segment_s")
+            if settings["bounds"] is not None and settings["bounds"][0] > task.min_segment_s:
+                least = (settings["bounds"][0], "optimizer.bounds_s")
             return follow_straight_lines(robot, poses, points, time_via_points, task.path.tolerance_m,
-                                         task.path.tolerance_rad, progress.note)
+                                         task.path.tolerance_rad, progress.note, least)
         sequences = [(ik, via, kept)] + ([second] if second is not None else [])
         path, (problem, result), ik, kept = _follow_lines(robot, poses, sequences, hints, limits, task.ik.seed,
                                                           follow, progress)

@@ -331,12 +331,15 @@ def _ros_package_path(package_dirs):
 
 def _check_urdf_unchanged(robot) -> None:
     """Refuse to draw a robot whose URDF file is gone or no longer the one it was loaded from (a result
-    saved after the file was edited would show another robot than it planned for).
+    saved after the file was edited would show another robot than it planned for), or one of whose
+    meshes is gone since, or is no longer a regular file of a mesh's size (``robot.check_meshes``: Rerun
+    would wait forever on a pipe put in a mesh's place).
 
     Raises:
         RecordingError: naming the file.
     """
-    from .robot import file_digest  # the robot is loaded: so is its module
+    from .errors import RobotFileError
+    from .robot import check_meshes, file_digest  # the robot is loaded: so is its module
 
     try:
         now = file_digest(robot.urdf_path)
@@ -346,6 +349,15 @@ def _check_urdf_unchanged(robot) -> None:
     if robot.urdf_digest and now != robot.urdf_digest:
         raise RecordingError(f"the URDF {robot.urdf_path} has changed since the robot was loaded: the recording "
                              f"would draw another robot than the plan's; plan again with it as it is now")
+    try:
+        missing = check_meshes(robot.urdf_path, robot.package_dirs)
+    except RobotFileError as exc:
+        raise RecordingError(f"cannot draw the robot: {exc}, which it was not when the robot was loaded; "
+                             f"restore the mesh, or plan again") from None
+    gone = [mesh for mesh in missing if mesh not in robot.missing_meshes]
+    if gone:
+        raise RecordingError(f"cannot draw the robot: the mesh {shown(gone[0], 120)} the URDF {robot.urdf_path} "
+                             f"names is gone since the robot was loaded; restore it, or plan again")
 
 
 def _log_robot(rec, result, times: np.ndarray, positions: np.ndarray):

@@ -186,9 +186,12 @@ class Robot:
             else:
                 failure = None
         if failure is not None:
+            text = _first_line(str(failure))
+            # example-robot-data words a Pinocchio built without SDF as "require pinocchio >= 3.0.0"
+            cause = "; this Pinocchio build has no SDF support, which its model needs" if "SDF" in text else ""
             raise RobotFileError(f"robot {name!r} of example-robot-data cannot be loaded with Pinocchio "
-                                 f"{pin.__version__}: {type(failure).__name__}: {_first_line(str(failure))}"
-                                 f"{_detail(loader_log)}") from None
+                                 f"{pin.__version__}: {type(failure).__name__}: {text}{_detail(loader_log)}"
+                                 f"{cause}") from None
         if model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer":
             raise UnsupportedRobotError(f"robot {name!r} has a floating base; only fixed-base arms can be planned")
         package_dirs = tuple(Path(d) for d in (loader.model_path, Path(loader.model_path).parent))
@@ -251,7 +254,7 @@ class Robot:
         except InputError as exc:  # an empty range, a negative limit: the robot's files are at fault
             raise RobotFileError(f"robot {shown(name)} ({urdf_path}): {exc}", path=Path(urdf_path)) from None
         placeholder = tuple(reduced.names[int(j) + 1] for j in np.flatnonzero(reduced.velocityLimit == 0))
-        missing = _check_meshes(Path(urdf_path), package_dirs)
+        missing = check_meshes(Path(urdf_path), package_dirs)
         held = {model.names[j]: float(reference[model.joints[j].idx_q]) for j in locked if model.joints[j].nq == 1}
         return cls(name, reduced, reduced.createData(), tool_frame, _frame_id(reduced, tool_frame), limits,
                    Path(urdf_path), package_dirs, placeholder, missing, held, file_digest(Path(urdf_path)))
@@ -396,7 +399,7 @@ def _mimic_joints(urdf_path: Path) -> list[str]:
     return [joint.get("name", "") for joint in urdf_elements(urdf_path, "joint") if joint.find("mimic") is not None]
 
 
-def _check_meshes(urdf_path: Path, package_dirs) -> tuple[str, ...]:
+def check_meshes(urdf_path: Path, package_dirs) -> tuple[str, ...]:
     """Every mesh the URDF names that exists is a regular file of at most ``MAX_MESH_BYTES``, so that
     drawing the robot cannot read a device (``/dev/zero``) or a pipe without end. Returns the
     meshes not found, as named (a robot is planned without them; the recording draws nothing there).

@@ -43,7 +43,10 @@ _PLAIN_KEY = re.compile(r"[A-Za-z0-9_\-]{1,40}")
 
 
 def _key_text(key) -> str:
-    """A mapping key as a key-path component: plain short names as they are, anything else shown."""
+    """A mapping key as a key-path component: plain short names as they are, YAML's null, true and false
+    as YAML spells them (a key ``~:`` or ``true:``), anything else shown."""
+    if key is None or isinstance(key, bool):
+        return {None: "null", True: "true", False: "false"}[key]
     return key if isinstance(key, str) and _PLAIN_KEY.fullmatch(key) else shown(key, 40)
 
 

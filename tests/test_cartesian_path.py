@@ -697,3 +697,21 @@ def test_the_failure_named_is_that_of_the_sequence_the_lines_reach(monkeypatch):
                                [(None, points, rule) for rule, points in rules.items()], [None] * 3, None, 0,
                                follow, SimpleNamespace(note=notes.append))
     assert sum("cannot follow the straight lines" in note for note in notes) == 3
+
+
+@pytest.mark.parametrize("key, optimizer, trajectory, least", [
+    ("trajectory.min_segment_s", {}, {"min_segment_s": 1.0}, "1"),
+    ("optimizer.bounds_s", {"bounds_s": [0.5, 2.0]}, {}, "0.5")])
+def test_straight_lines_refused_for_a_least_duration_name_it(key, optimizer, trajectory, least):
+    """The UR5 pick-and-place in linear mode with every segment at least 1 s (or h_min 0.5 s): the poses
+    crowd at the turn at waypoint 2, each one another slow segment, and the spline overshoots however many.
+    The refusal blamed the tolerance ("allow a larger path.tolerance_m"), which did not help (20 mm was
+    refused too, sweep 17); it now names the least duration and its key."""
+    data = yaml.safe_load((TASKS / "ur5_pick_and_place.yaml").read_text())
+    data["path"] = {"mode": "linear", "tolerance_m": 0.001, "tolerance_deg": 0.5}
+    data["trajectory"] = {"family": "hybrid", **trajectory}
+    data["optimizer"] = optimizer
+    with pytest.raises(IKError, match=rf"the joints barely move there .*, and the timing holds the segments there at "
+                                      rf"their least duration, {least} s \({re.escape(key)}\): .*; lower that least "
+                                      rf"duration$"):
+        plan(parse_task(data, source=TASKS / "ur5_pick_and_place.yaml"))

@@ -21,9 +21,9 @@ ROOT = Path(__file__).resolve().parents[1]
 PAPER_JOINT = ROOT / "scripts" / "tasks" / "puma560_paper_joint.yaml"
 
 
-def write_outputs(path, files: dict[str, str], **options) -> None:
+def write_outputs(path, texts: dict[str, str], **options) -> None:
     with output_folder(path, **options) as staging:
-        for name, text in files.items():
+        for name, text in texts.items():
             (staging / name).write_text(text)
 
 
@@ -203,6 +203,41 @@ def test_planner_folder_is_replaced_whole_in_one_step(tmp_path):
     assert contents(out) == {"a.txt": "2", "c.txt": "2", MARKER: (out / MARKER).read_text()}
     assert out.stat().st_ino != inode  # a new folder took the old one's place: no file-by-file moves
     assert leftovers(tmp_path) == [] and sorted(os.listdir(tmp_path)) == ["out"]
+
+
+def test_another_commands_outputs_are_kept_as_a_users_files(tmp_path):
+    """A reproduction into a plan's folder replaced it whole: the plan's outputs were deleted without a
+    word, --force or not (sweep 17). A run that names its files now refuses the planner's files of other
+    names, and --force writes beside them, keeping them (and the marker keeps them the planner's)."""
+    out = tmp_path / "out"
+    plan_files, report_files = ("summary.json", "trajectory.csv"), ("reproduction.md",)
+    write_outputs(out, {"summary.json": "plan", "trajectory.csv": "t"}, files=plan_files)
+    with pytest.raises(OutputError, match=r"holds outputs the planner wrote that this run does not write "
+                                          r"\('summary.json, trajectory.csv': another command's.*--force to write "
+                                          r"beside them"):
+        write_outputs(out, {"reproduction.md": "report"}, files=report_files)
+    assert contents(out) | {MARKER: ""} == {"summary.json": "plan", "trajectory.csv": "t", MARKER: ""}
+    write_outputs(out, {"reproduction.md": "report"}, files=report_files, force=True)
+    assert contents(out) | {MARKER: ""} == {"summary.json": "plan", "trajectory.csv": "t", "reproduction.md": "report",
+                                            MARKER: ""}
+    write_outputs(out, {"summary.json": "plan 2", "trajectory.csv": "t2"}, files=plan_files, force=True)
+    assert contents(out) | {MARKER: ""} == {"summary.json": "plan 2", "trajectory.csv": "t2",
+                                            "reproduction.md": "report", MARKER: ""}
+    assert outputs._planner_files(out) == {"summary.json", "trajectory.csv", "reproduction.md"}
+    write_outputs(out, {"summary.json": "plan 3", "x.csv": "x"}, files=("summary.json", "x.csv"),
+                  force=True)  # a plan file this run does not write is the planner's of another name: kept
+    assert (out / "trajectory.csv").read_text() == "t2"
+    assert leftovers(tmp_path) == []
+
+
+def test_the_plan_command_writes_to_out_and_the_task_files_name_by_default(tmp_path, monkeypatch, task, capsys):
+    """``plan``'s default folder was ``out``, in which ``reproduce``'s default ``out/reproduce`` then
+    stood as a foreign file: plan, reproduce, plan was refused (sweep 17)."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "out" / "reproduce").mkdir(parents=True)  # as reproduce leaves it (its content is its own)
+    assert main(["plan", str(task), "--quiet"]) == 0
+    assert (tmp_path / "out" / "task" / "summary.json").is_file()
+    assert main(["plan", str(task), "--quiet"]) == 0  # its own folder: replaced whole
 
 
 def test_a_file_added_by_the_user_to_a_planner_folder_is_never_deleted(tmp_path):

@@ -38,6 +38,19 @@ def test_paper_cartesian_task_recovers_table_ii():
     np.testing.assert_allclose(result.trajectory.evaluate(result.trajectory.via_times), result.via_points, atol=1e-9)
     summary = result.summary()
     assert summary["robot"]["tool_frame"] == "tool" and len(summary["ik"]["waypoints"]) == 8
+    assert (summary["ik"]["solver"], summary["ik"]["seed"]) == ("closed form", 0)
+
+
+def test_the_summary_records_the_ik_seed_and_solver(monkeypatch):
+    """ik.seed was accepted and not recorded (sweep 17): the summary now gives it, and says whether the
+    poses were solved in closed form (the seed then only seeds the continuous rule's restarts)."""
+    import planner.pipeline as pipeline
+
+    data = yaml.safe_load(PAPER_CARTESIAN.read_text())
+    data["ik"] = {"seed": 12345}
+    monkeypatch.setattr(pipeline, "closed_form_solver", lambda robot: None)  # as for an arm of another type
+    summary = plan(parse_task(data, source=PAPER_CARTESIAN)).summary()
+    assert (summary["ik"]["solver"], summary["ik"]["seed"]) == ("numeric", 12345)
 
 
 def test_ur5_task_plans_within_its_limits():

@@ -892,3 +892,32 @@ def test_a_urdf_changed_after_planning_is_not_drawn(tmp_path, change):
     with pytest.raises(RecordingError, match=expected):
         result.save(tmp_path / "out")
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("change", ["fifo", "folder", "removed"])
+def test_a_mesh_changed_after_planning_is_not_drawn(tmp_path, change):
+    """Rerun reads the meshes when it draws the robot: a mesh made a pipe since the robot was loaded hung the
+    save forever (sweep 17), a folder or a removed one left the link undrawn without a word. All three are
+    refused, naming the mesh, and nothing is published."""
+    import os
+
+    from planner import make_task
+
+    (tmp_path / "link.stl").write_bytes(b"solid x\nendsolid x\n")
+    urdf = tmp_path / "meshy.urdf"
+    urdf.write_text("""<robot name="meshy"><link name="base"/>
+  <link name="arm"><visual><geometry><mesh filename="link.stl"/></geometry></visual></link>
+  <joint name="shoulder" type="revolute"><parent link="base"/><child link="arm"/><axis xyz="0 0 1"/>
+    <limit lower="-3" upper="3" velocity="1" effort="1"/></joint></robot>""")
+    result = plan(make_task(robot={"urdf": urdf, "tool_frame": "arm"}, joints_deg=[[0], [10]],
+                            limits={"acceleration_deg_s2": [10], "jerk_deg_s3": [10]}))
+    (tmp_path / "link.stl").unlink()
+    if change == "fifo":
+        os.mkfifo(tmp_path / "link.stl")
+    elif change == "folder":
+        (tmp_path / "link.stl").mkdir()
+    expected = (r"the mesh 'link.stl' the URDF .*meshy.urdf names is gone since the robot was loaded"
+                if change == "removed" else r"mesh 'link.stl' is not a regular file .*, which it was not when")
+    with pytest.raises(RecordingError, match=expected):
+        result.save(tmp_path / "out")
+    assert not (tmp_path / "out").exists()

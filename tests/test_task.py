@@ -90,6 +90,15 @@ def test_bad_task_names_key_path(changes, message):
         parse_task(joint_task(**changes))
 
 
+@pytest.mark.parametrize("key, shown", [("~", "null"), ("null", "null"), ("true", "true"), ("false", "false")])
+def test_a_yaml_null_or_boolean_key_is_named_as_yaml_spells_it(tmp_path, key, shown):
+    """A top-level ``~:`` was named "None: unknown key" (sweep 17)."""
+    path = tmp_path / "task.yaml"
+    path.write_text(yaml.safe_dump(joint_task()) + f"{key}: 1\n")
+    with pytest.raises(TaskError, match=rf"^{shown}: unknown key; expected one of: version, name"):
+        load_task(path)
+
+
 def test_missing_and_malformed_files(tmp_path):
     with pytest.raises(TaskError, match="cannot read task file"):
         load_task(tmp_path / "missing.yaml")
