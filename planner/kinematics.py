@@ -434,6 +434,27 @@ class KinematicFigures(ReadOnlyArrays):
         return found
 
 
+class Break(str):
+    """One line of ``continuity_breaks`` or ``via_point_misses`` (compared and joined as text), with the
+    joint's index (``joint``), the quantity (``position``, ``velocity``, ``acceleration``), the value found [SI] and
+    the tolerance it exceeds [SI] as fields, as an ``InfeasibleError`` carries them."""
+
+    joint: int
+    quantity: str
+    value: float
+    limit: float
+
+    def __new__(cls, text: str, joint: int, quantity: str, value: float, limit: float) -> "Break":
+        """The line ``text`` with its fields (value and limit in SI units)."""
+        line = super().__new__(cls, text)
+        line.joint, line.quantity, line.value, line.limit = joint, quantity, float(value), float(limit)
+        return line
+
+    def __reduce__(self):
+        """Pickle with its fields (a check run in a worker process returns its lines whole)."""
+        return Break, (str(self), self.joint, self.quantity, self.value, self.limit)
+
+
 #: The derivative orders every family keeps continuous across its knots (position, velocity, acceleration:
 #: C2; the cubic families' jerk steps by design), the last two 0 at both ends, where every family rests.
 CONTINUOUS_ORDERS = ("position", "velocity", "acceleration")
@@ -444,7 +465,8 @@ CONTINUOUS_ORDERS = ("position", "velocity", "acceleration")
 ROUNDING_ULPS = 16
 
 
-def continuity_breaks(trajectory: PiecewisePolynomial, names: tuple[str, ...] | list[str] | None = None) -> list[str]:
+def continuity_breaks(trajectory: PiecewisePolynomial,
+                      names: tuple[str, ...] | list[str] | None = None) -> list[Break]:
     """Where ``trajectory`` is not a motion the planner makes, one line each (empty: none): a jump of a
     joint's position, velocity or acceleration at a knot (the first per joint and order), or a velocity or
     acceleration other than 0 at the start or the end. A jump counts beyond ``FEASIBILITY_TOLERANCE`` of
@@ -481,18 +503,19 @@ def continuity_breaks(trajectory: PiecewisePolynomial, names: tuple[str, ...] | 
             beyond = np.flatnonzero(~(jumps[:, j] <= allowed[1:-1, j]))
             if beyond.size:
                 k = int(beyond[0]) + 1
-                breaks.append(f"joint {name} {quantity} jumps by {in_degrees(jumps[k - 1, j], order)} at knot {k} "
-                              f"(t = {knot_times[k]:.6g} s)")
+                breaks.append(Break(f"joint {name} {quantity} jumps by {in_degrees(jumps[k - 1, j], order)} at knot "
+                                    f"{k} (t = {knot_times[k]:.6g} s)", j, quantity, jumps[k - 1, j],
+                                    allowed[k, j]))
             for where, value, limit in (("start", start[0, j], allowed[0, j]),
                                         ("end", end[-1, j], allowed[-1, j])) if order else ():
                 if not abs(value) <= limit:
-                    breaks.append(f"joint {name} {quantity} is {in_degrees(value, order)} at the {where}, where "
-                                  f"every trajectory rests")
+                    breaks.append(Break(f"joint {name} {quantity} is {in_degrees(value, order)} at the {where}, "
+                                        f"where every trajectory rests", j, quantity, value, limit))
     return breaks
 
 
 def via_point_misses(trajectory: PiecewisePolynomial, via_points: np.ndarray,
-                     names: tuple[str, ...] | list[str] | None = None) -> list[str]:
+                     names: tuple[str, ...] | list[str] | None = None) -> list[Break]:
     """Via-points (n, J) [rad] ``trajectory`` does not pass at its ``via_times``, one line per joint that
     misses one (the first it misses), naming the via-point, the joint and by how much (empty: none). A
     miss counts beyond ``2 FEASIBILITY_TOLERANCE`` of max(1 rad, |via-point|): the planner merges via-points
@@ -507,7 +530,8 @@ def via_point_misses(trajectory: PiecewisePolynomial, via_points: np.ndarray,
         beyond = np.flatnonzero(~(miss[:, j] <= allowed[:, j]))
         if beyond.size:
             i = int(beyond[0])
-            found.append(f"joint {name} misses via-point {i} by {in_degrees(miss[i, j], 0)} (t = {times[i]:.6g} s)")
+            found.append(Break(f"joint {name} misses via-point {i} by {in_degrees(miss[i, j], 0)} (t = "
+                               f"{times[i]:.6g} s)", j, "position", miss[i, j], allowed[i, j]))
     return found
 
 

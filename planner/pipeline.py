@@ -777,6 +777,8 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         raise InfeasibleError(f"the planned trajectory fails the exact check: {exceeded}", violation=exceeded)
     broken = continuity_breaks(trajectory, limits.names) + via_point_misses(trajectory, via, limits.names)
     if broken:  # a spline is continuous and passes its via-points by construction: this guards the construction
-        raise InfeasibleError(f"the planned trajectory fails the exact check: {broken[0]}")
+        first = broken[0]
+        raise InfeasibleError(f"the planned trajectory fails the exact check: {first}", joint=first.joint,
+                              quantity=first.quantity, value=first.value, limit=first.limit)
     return PlanResult(task, via, limits, result, trajectory, figures, timings, robot, ik, path, branch_times, kept,
                       met)

@@ -1,3 +1,6 @@
+import pickle
+from math import factorial
+
 import numpy as np
 import pytest
 from hypothesis import given
@@ -458,6 +461,12 @@ def test_a_jump_at_a_knot_or_motion_at_an_end_is_named(change, said):
     broken = PiecewisePolynomial(trajectory.durations, coefficients, trajectory.via_knots)
     assert said in continuity_breaks(broken)
     assert continuity_breaks(trajectory) == []
+    line = next(b for b in continuity_breaks(broken) if b == said)  # the fields an InfeasibleError carries
+    quantity = said.split()[2]
+    order = ("position", "velocity", "acceleration").index(quantity)
+    assert (line.joint, line.quantity) == (joint, quantity) and 0 <= line.limit < abs(line.value)
+    assert abs(line.value) == pytest.approx(abs(delta) * factorial(power) / factorial(power - order), rel=1e-9)
+    assert pickle.loads(pickle.dumps(line)).value == line.value
 
 
 @pytest.mark.parametrize("offset_deg, step_deg, limit_deg", [(170.0, 1e-7, 60.0), (99_999.0, 1e-4, 1e-4)])

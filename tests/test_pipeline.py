@@ -574,3 +574,25 @@ def test_a_population_too_large_for_the_task_is_a_task_error_naming_the_key():
                                         r"201 durations \(40,401,000 numbers\), above the 20,000,000 a search holds: "
                                         r"at most 495 for 201 segments$"):
         plan(task)
+
+
+def test_a_planned_trajectory_that_misses_a_via_point_is_refused_with_the_fields(monkeypatch):
+    """The final guard (a spline passes its via-points by construction) raised an InfeasibleError without
+    the joint, quantity, value and limit the other refusals carry (sweep 16); a via-point moved after the
+    timing stands in for a construction that misses it."""
+    import planner.pipeline as pipeline
+    from planner import InfeasibleError
+    from planner.kinematics import via_point_misses
+
+    def moved(trajectory, via, names):
+        shifted = np.array(via, dtype=float)
+        shifted[2, 1] += 1e-3
+        return via_point_misses(trajectory, shifted, names)
+
+    monkeypatch.setattr(pipeline, "via_point_misses", moved)
+    with pytest.raises(InfeasibleError, match=r"fails the exact check: joint joint2 misses via-point 2 by "
+                                              r"0\.0572958 deg") as raised:
+        plan(PAPER_JOINT)
+    error = raised.value
+    assert (error.joint, error.quantity) == (1, "position") and error.value == pytest.approx(1e-3, rel=1e-6)
+    assert error.limit == pytest.approx(2e-9 * max(1.0, abs(np.deg2rad(paper.VIA_POINTS_DEG[2][1]))), rel=1e-9)
