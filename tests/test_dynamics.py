@@ -661,6 +661,19 @@ def test_a_resting_end_beyond_the_torque_limit_names_another_ik_solution_that_ho
     hinted = [poses[0], {**poses[1], "hint_deg": np.rad2deg(hint).tolist()}]
     with pytest.raises(InfeasibleError, match=r"at the first waypoint, .*hint_deg, such as"):
         plan({**task, "waypoints": {"cartesian": hinted}})  # the last waypoint holds; the first is next
+    # A hint at the last waypoint that does not hold still: the remedy names the pose's other solutions,
+    # not the optimal rule (a hinted waypoint keeps its hint's solution whatever the rule).
+    from scipy.spatial.transform import Rotation
+
+    from planner.ik import pose_from_position_quaternion, pose_solutions
+    pose = pose_from_position_quaternion(poses[1]["xyz_m"],
+                                         Rotation.from_euler("xyz", poses[1]["rpy_deg"], degrees=True).as_quat())
+    found, _, _ = pose_solutions(robot, pose, robot.limits, np.random.default_rng(0))
+    heavy = next(s.q for s in found
+                 if abs(pin.computeGeneralizedGravity(robot.model, robot.model.createData(), s.q)[1]) > 20)
+    hinted = [poses[0], {**poses[1], "hint_deg": np.rad2deg(heavy).tolist()}]
+    with pytest.raises(InfeasibleError, match=r"at the last waypoint, .*hint_deg, such as \[[-\d., ]+\]$"):
+        plan({**task, "ik": {"branch": "optimal"}, "waypoints": {"cartesian": hinted}})
     weak = {**task, "limits": {**task["limits"], "torque_nm": [150, 5, 150, 28, 28, 28]}}
     with pytest.raises(InfeasibleError, match=r"none of the 8 IK solutions of waypoint \d's pose within the joint "
                                               r"ranges holds still within the limits either: raise"):
