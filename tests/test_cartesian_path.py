@@ -701,10 +701,12 @@ def test_the_failure_named_is_that_of_the_sequence_the_lines_reach(monkeypatch):
 
 @pytest.mark.parametrize("key, optimizer, trajectory, least", [
     ("trajectory.min_segment_s", {}, {"min_segment_s": 1.0}, "1"),
-    ("optimizer.bounds_s", {"bounds_s": [0.5, 2.0]}, {}, "0.5")])
+    ("optimizer.bounds_s", {"bounds_s": [0.5, 2.0]}, {}, "0.5"),
+    ("trajectory.min_segment_s", {"bounds_s": [0.5, 2.0]}, {"min_segment_s": 1.0}, "1")])  # the larger binds
 def test_straight_lines_refused_for_a_least_duration_name_it(key, optimizer, trajectory, least):
     """The UR5 pick-and-place in linear mode with every segment at least 1 s (or h_min 0.5 s): the poses
-    crowd at the turn at waypoint 2, each one another slow segment, and the spline overshoots however many.
+    crowd at the turn at waypoint 2, each one another slow segment, and the spline overshoots however many
+    (with both keys, the larger least duration is the one named).
     The refusal blamed the tolerance ("allow a larger path.tolerance_m"), which did not help (20 mm was
     refused too, sweep 17); it now names the least duration and its key."""
     data = yaml.safe_load((TASKS / "ur5_pick_and_place.yaml").read_text())
@@ -715,3 +717,24 @@ def test_straight_lines_refused_for_a_least_duration_name_it(key, optimizer, tra
                                       rf"their least duration, {least} s \({re.escape(key)}\): .*; lower that least "
                                       rf"duration$"):
         plan(parse_task(data, source=TASKS / "ur5_pick_and_place.yaml"))
+
+
+class _Knots:
+    """A stand-in for a PiecewisePolynomial: its segment durations [s], knot and via-point times."""
+
+    def __init__(self, durations, via_knots):
+        self.durations = np.asarray(durations, dtype=float)
+        self.knot_times = np.concatenate(([0.0], np.cumsum(self.durations)))
+        self.via_times = self.knot_times[via_knots]
+
+
+@pytest.mark.parametrize("interval, held", [(0, True), (1, False), (2, True)])
+def test_a_via_interval_is_held_at_its_least_duration_where_any_of_its_segments_is(interval, held):
+    """Via-points at knots 0, 2, 3, 5 (the cubic family's extra knots), segments of 2, 1, 3, 1, 2 s, least
+    duration 1 s: the first and last via intervals each hold one segment at 1 s; the middle one's single
+    segment lasts 3 s, and the 1 s segments on either side of it are not its own."""
+    from planner.cartesian_path import _at_least_duration
+    knots = _Knots([2.0, 1.0, 3.0, 1.0, 2.0], [0, 2, 3, 5])
+    assert _at_least_duration(knots, interval, (1.0, "k")) == ((1.0, "k") if held else None)
+    assert _at_least_duration(knots, interval, (0.0, "")) is None
+    assert _at_least_duration(knots, interval, (0.9999999, "k")) == ((0.9999999, "k") if held else None)

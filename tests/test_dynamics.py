@@ -662,7 +662,7 @@ def test_a_resting_end_beyond_the_torque_limit_names_another_ik_solution_that_ho
     with pytest.raises(InfeasibleError, match=r"at the first waypoint, .*hint_deg, such as"):
         plan({**task, "waypoints": {"cartesian": hinted}})  # the last waypoint holds; the first is next
     # A hint at the last waypoint that does not hold still: the remedy names the pose's other solutions,
-    # not the optimal rule (a hinted waypoint keeps its hint's solution whatever the rule).
+    # not the optimal rule, under either rule (a hinted waypoint keeps its hint's solution whatever the rule).
     from scipy.spatial.transform import Rotation
 
     from planner.ik import pose_from_position_quaternion, pose_solutions
@@ -672,8 +672,9 @@ def test_a_resting_end_beyond_the_torque_limit_names_another_ik_solution_that_ho
     heavy = next(s.q for s in found
                  if abs(pin.computeGeneralizedGravity(robot.model, robot.model.createData(), s.q)[1]) > 20)
     hinted = [poses[0], {**poses[1], "hint_deg": np.rad2deg(heavy).tolist()}]
-    with pytest.raises(InfeasibleError, match=r"at the last waypoint, .*hint_deg, such as \[[-\d., ]+\]$"):
-        plan({**task, "ik": {"branch": "optimal"}, "waypoints": {"cartesian": hinted}})
+    for branch in ("continuous", "optimal"):
+        with pytest.raises(InfeasibleError, match=r"at the last waypoint, .*hint_deg, such as \[[-\d., ]+\]$"):
+            plan({**task, "ik": {"branch": branch}, "waypoints": {"cartesian": hinted}})
     weak = {**task, "limits": {**task["limits"], "torque_nm": [150, 5, 150, 28, 28, 28]}}
     with pytest.raises(InfeasibleError, match=r"none of the 8 IK solutions of waypoint \d's pose within the joint "
                                               r"ranges holds still within the limits either: raise"):

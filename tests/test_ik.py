@@ -400,3 +400,18 @@ def test_a_solution_on_a_documented_bound_is_in_range(puma):
     solutions = solve_waypoints(puma, [start, puma.forward_kinematics(q)])
     assert np.abs(solutions[1].q - q).max() <= 1e-9 and within_ranges(puma, solutions[1].q)
     assert solutions[1].q[1] == puma.limits.upper[1]
+
+
+def test_the_numeric_search_reports_a_solve_that_reaches_the_pose_outside_the_ranges():
+    """Ranges of +-1 deg around a UR5 configuration, the shoulder's moved 2 deg past it, numeric search: no
+    solution lies inside them, and the best solve reported (for the message) must be one that reaches the
+    pose, outside the ranges, not an unreached solve that ends nearer them (the message would then say the
+    pose is out of reach)."""
+    robot = Robot.from_example_robot_data("ur5", "tool0")
+    q = np.deg2rad([10.0, -60.0, 80.0, -100.0, -90.0, 30.0])
+    lower, upper = q - np.deg2rad(1.0), q + np.deg2rad(1.0)
+    lower[1], upper[1] = q[1] + np.deg2rad(2.0), q[1] + np.deg2rad(4.0)
+    narrow = robot.limits.with_overrides(lower=lower, upper=upper)
+    found, best, _ = pose_solutions(robot, robot.forward_kinematics(q), narrow, np.random.default_rng(0),
+                                    closed_form=False)
+    assert found == [] and best.residual <= 1e-9, best.residual

@@ -216,6 +216,25 @@ def test_torque_rounds_go_on_until_the_frozen_model_settles(tmp_path, monkeypatc
     assert np.abs(torque).max() / 12.0 == pytest.approx(1.0, abs=1e-3)
 
 
+def test_every_program_with_robot_rows_is_built_with_the_warm_settings(tmp_path, monkeypatch):
+    """A robot round's start is the last round's solution or a slow, feasible start, near the optimum's
+    active set either way: every program with robot rows, the first round's too, gets
+    ``WARM_IPOPT_OPTIONS``; a program without them starts cold in its first round."""
+    built: list[tuple[bool, bool]] = []
+    build = nlp._Program.__init__
+
+    def init(self, program_nlp, program_certificates, warm=False):
+        build(self, program_nlp, program_certificates, warm)
+        built.append((program_nlp.robot is not None, warm))
+
+    monkeypatch.setattr(nlp._Program, "__init__", init)
+    problem, constraints, start = _pendulum_problem(tmp_path, torque=12.0)
+    nlp.TimingNLP(problem, start, constraints).solve(start)
+    nlp.TimingNLP(problem, start).solve(start)
+    assert built[0] == (True, True) and all(warm for robot, warm in built if robot)
+    assert (False, False) in built
+
+
 # ------------------------------------------------------------------ certificates
 
 def _cubic_certified_on_grid(coefficients: np.ndarray, step: float = 0.04, top: float = 6.0) -> np.ndarray:
@@ -487,6 +506,8 @@ def test_a_later_rounds_program_starts_from_the_earlier_solution_row_by_row():
     given = np.concatenate((core, solver._certificate_start(later, coefficients, h)))
     start = first.carried(solution, second, given)
     x, lam_g = solution["x"].full().ravel(), solution["lam_g"].full().ravel()
+    lam_x = solution["lam_x"].full().ravel()
+    assert np.any(lam_x[first.core_size:])  # (some certificate variable sits on its bound: the check below bites)
     g_first = first.solver.get_function("nlp_g")(x, np.zeros(0)).full().ravel()
     g_second = second.solver.get_function("nlp_g")(start["x0"], np.zeros(0)).full().ravel()
     np.testing.assert_allclose(g_second[second.spline_rows], g_first[first.spline_rows], rtol=1e-12, atol=1e-12)
@@ -499,7 +520,67 @@ def test_a_later_rounds_program_starts_from_the_earlier_solution_row_by_row():
             np.testing.assert_allclose(g_second[rows], g_first[old_rows], rtol=1e-12, atol=1e-12)
             np.testing.assert_array_equal(start["lam_g0"][rows], lam_g[old_rows])
             np.testing.assert_array_equal(start["x0"][variables], x[first.certificate_variables[certificate]])
+            np.testing.assert_array_equal(start["lam_x0"][variables],
+                                          lam_x[first.certificate_variables[certificate]])
         else:
             assert not np.any(start["lam_g0"][rows]) and not np.any(start["lam_x0"][variables])
             np.testing.assert_array_equal(start["x0"][variables], given[variables])
     assert sum(map(len, second.certificate_rows.values())) + len(second.spline_rows) == len(second.lbg)
+
+
+def _assert_partitioned(program) -> None:
+    """The program's variables past the core are exactly its certificates' (one owner each), and its
+    constraint rows exactly its spline's, robot's and certificates' rows."""
+    from itertools import chain
+    variables = sorted(chain.from_iterable(map(list, program.certificate_variables.values())))
+    assert variables == list(range(program.core_size, len(program.lbx)))
+    rows = sorted(chain(program.spline_rows, program.robot_rows,
+                        chain.from_iterable(map(list, program.certificate_rows.values()))))
+    assert rows == list(range(len(program.lbg)))
+
+
+def test_certificates_of_both_kinds_own_disjoint_variables_and_rows():
+    """Quadratic and cubic certificates in one program (ranges of +-0.02 rad around the paper's via-points,
+    durations 0.7 of the optimum, every extreme cut): each variable and row has one owner."""
+    via = np.deg2rad(paper.VIA_POINTS_DEG)
+    problem = TimingProblem(via, "hybrid", paper.paper_limits().with_overrides(lower=via.min(axis=0) - 0.02,
+                                                                              upper=via.max(axis=0) + 0.02))
+    optimum = nlp.TimingNLP(problem, np.full(problem.segment_count, 3.0)).solve(np.full(problem.segment_count, 3.0))
+    solver = nlp.TimingNLP(problem, optimum.durations)
+    h = 0.7 * optimum.durations
+    every, _ = solver._certify([], problem.coefficients(h[None])[0], h, everywhere=True)
+    kinds = {c.kind for c in every}
+    assert {"quadratic", "cubic"} <= kinds, kinds
+    _assert_partitioned(solver._program(every))
+
+
+def test_a_later_rounds_program_carries_the_robot_rows_multipliers(tmp_path):
+    """With a torque limit (the pendulum swinging between +-88 deg, its range +-90.5 deg), a round with
+    certificates added starts its robot rows from the last round's multipliers, row by row (the rows'
+    values agree there too)."""
+    from planner.timing.robot_rows import parameters
+    problem, constraints, start = _pendulum_problem(tmp_path, torque=12.0)
+    problem = TimingProblem(np.deg2rad([[-90.0], [88.0], [-88.0], [90.0]]), "hybrid",
+                            problem.limits.with_overrides(lower=np.deg2rad([-90.5]), upper=np.deg2rad([90.5])))
+    solver = nlp.TimingNLP(problem, start, constraints)
+    h = start / 2
+    coefficients = problem.coefficients(h[None])[0]
+    model = parameters(solver._freeze(coefficients, h)).ravel(order="F")
+    core = np.concatenate((np.log(h / solver.scales.time), solver.formulation.state_values(coefficients, h)))
+    first = solver._program([])
+    solution = first.solver(x0=core, lbx=first.lbx, ubx=first.ubx, lbg=first.lbg, ubg=first.ubg, p=model)
+    assert first.solver.stats()["return_status"] in SOLVED
+    x = solution["x"].full().ravel()
+    every, _ = solver._certify([], coefficients, h, everywhere=True)
+    assert every  # (the range binds inside segments)
+    second = solver._program(every, warm=True)
+    _assert_partitioned(first)
+    _assert_partitioned(second)
+    given = np.concatenate((core, solver._certificate_start(every, coefficients, h)))
+    carried = first.carried(solution, second, given)
+    lam_g = solution["lam_g"].full().ravel()
+    assert len(second.robot_rows) == len(first.robot_rows) > 0 and np.any(lam_g[first.robot_rows])
+    np.testing.assert_array_equal(carried["lam_g0"][second.robot_rows], lam_g[first.robot_rows])
+    g_first = first.solver.get_function("nlp_g")(x, model).full().ravel()
+    g_second = second.solver.get_function("nlp_g")(carried["x0"], model).full().ravel()
+    np.testing.assert_allclose(g_second[second.robot_rows], g_first[first.robot_rows], rtol=1e-12, atol=1e-12)

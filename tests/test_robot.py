@@ -271,6 +271,14 @@ def test_example_robot_this_pinocchio_cannot_load_is_a_robot_error(monkeypatch, 
         Robot.from_example_robot_data("broken")
     assert capfd.readouterr().err == ""
 
+    class Missing:
+        def __init__(self):
+            raise ImportError("no module named meshcat")
+
+    monkeypatch.setitem(robots_loader.ROBOTS, "missing", Missing)
+    with pytest.raises(RobotError, match=r": ImportError: no module named meshcat$"):  # no SDF cause made up
+        Robot.from_example_robot_data("missing")
+
 
 MESH_ARM = """<robot name="meshy">
   <link name="base"/>

@@ -90,7 +90,8 @@ def test_bad_task_names_key_path(changes, message):
         parse_task(joint_task(**changes))
 
 
-@pytest.mark.parametrize("key, shown", [("~", "null"), ("null", "null"), ("true", "true"), ("false", "false")])
+@pytest.mark.parametrize("key, shown", [("~", "null"), ("null", "null"), ("true", "true"), ("false", "false"),
+                                        ("1", "1"), ("0", "0")])
 def test_a_yaml_null_or_boolean_key_is_named_as_yaml_spells_it(tmp_path, key, shown):
     """A top-level ``~:`` was named "None: unknown key" (sweep 17)."""
     path = tmp_path / "task.yaml"
@@ -553,12 +554,18 @@ def test_weights_without_the_time_jerk_objective_are_refused(optimizer):
 
 def test_a_seed_for_the_deterministic_nlp_is_refused():
     """It was accepted and silently unused; a task document of an nlp task holds no seed, so it reads back."""
-    assert_refused(lambda: parse_task(joint_task(optimizer={"algorithm": "nlp", "seed": 3})),
-                   "the nlp algorithm is deterministic and uses no seed", "optimizer.seed")
+    with pytest.raises(TaskError, match="the nlp algorithm is deterministic and uses no seed") as refusal:
+        parse_task(joint_task(optimizer={"algorithm": "nlp", "seed": 3}))
+    assert "optimizer.seed" in str(refusal.value)
+    seeded = re.search(r"choose a search that does \((.*)\)$", str(refusal.value))
+    assert seeded is not None and "cuckoo" in seeded.group(1) and "nlp" not in seeded.group(1)
     task = parse_task(joint_task(optimizer={"algorithm": "nlp"}))
     assert "seed" not in task_document(task)["optimizer"]
     assert parse_task(task_document(task)).optimizer == task.optimizer
-    assert parse_task(joint_task(optimizer={"algorithm": "cuckoo", "seed": 3})).optimizer["seed"] == 3
+    cuckoo = parse_task(joint_task(optimizer={"algorithm": "cuckoo", "seed": 3}))
+    assert cuckoo.optimizer["seed"] == 3
+    assert task_document(cuckoo)["optimizer"]["seed"] == 3  # a reproduced search reruns with its own seed
+    assert parse_task(task_document(cuckoo)).optimizer == cuckoo.optimizer
 
 
 @pytest.mark.parametrize("key", ["tolerance_m", "tolerance_deg"])
