@@ -24,7 +24,10 @@ tool by forward kinematics at ``CHECK_RATE_HZ`` (and at least
 would exceed ``MAX_CHECK_SAMPLES`` is sampled more sparsely, down to that
 count), inserts the midpoint of every
 interval whose tool strays beyond ``MARGIN`` of a tolerance, and repeats until
-none does. The margin covers what lies between samples. Where a round's
+none does. The margin covers what lies between samples. Where the timing holds
+such an interval's segments at their least duration (``trajectory.min_segment_s``
+or h_min), bisecting would crowd slow segments there, which the spline overshoots:
+the segment's poses are then spaced evenly instead, twice as many as it had. Where a round's
 via-points cannot be timed, the intervals of largest joint change are bisected by
 IK alone (``_name_jump``): a motion that jumps (a singularity on the line) is
 then named as the segment's error rather than the timing's.
@@ -172,8 +175,9 @@ def follow_straight_lines(robot: Robot, poses: list[pin.SE3], waypoint_q: np.nda
         tolerance_m, tolerance_rad: the largest distance [m] and angle [rad] allowed.
         note: told one line per round: how far the tool strays and what happens next.
         least_duration: the shortest segment the timing allows [s] and the task key that sets it
-            (``trajectory.min_segment_s`` or ``optimizer.bounds_s``): where the segments between the
-            closest poses last no longer, a refusal names it.
+            (``trajectory.min_segment_s`` or ``optimizer.bounds_s``): a segment of the path with an
+            interval beyond the tolerances whose timed segments last no longer gets twice as many poses,
+            spaced evenly (``_respace``), and where they cannot come closer a refusal names it.
 
     Raises:
         IKError: a segment that leaves the reachable workspace, or that no joint
@@ -205,18 +209,36 @@ def follow_straight_lines(robot: Robot, poses: list[pin.SE3], waypoint_q: np.nda
         if rounds == MAX_ROUNDS:
             break
         found = [(int(np.searchsorted(waypoint_via, k, side="right") - 1), int(k)) for k in np.flatnonzero(exceeded)]
-        if len(via) + len(found) > MAX_VIA_POINTS:
+        held: dict[int, tuple[float, str]] = {}  # path segment: the least duration an interval of it is held at
+        for i, k in found:
+            least = _at_least_duration(trajectory, k, least_duration)
+            if least is not None:
+                held[i] = least
+        spaced = _even_counts(configurations, held)
+        respaced = {i for i, count in spaced.items() if count > counts[i] and 1 / count >= 2 * MIN_FRACTION}
+        added = sum(spaced[i] - counts[i] for i in respaced) + sum(i not in respaced for i, _ in found)
+        if len(via) + added > MAX_VIA_POINTS:
             raise TaskError("path.tolerance_m", f"following the straight lines within {1e3 * tolerance_m:g} mm and "
                                                 f"{np.rad2deg(tolerance_rad):g} deg needs more than {MAX_VIA_POINTS} "
                                                 f"via-points ({len(via)} after {rounds} rounds, still straying); "
                                                 f"allow larger tolerances or split the task")
+        if respaced:
+            least = next(iter(held.values()))
+            note(f"straight-line round {rounds}: the timed segments of path segment(s) "
+                 f"{', '.join(map(str, sorted(held)))} sit at their least duration, {least[0]:.6g} s ({least[1]}): "
+                 f"spacing the poses of path segment(s) {', '.join(map(str, sorted(respaced)))} evenly instead, "
+                 f"{sum(spaced[i] - 1 for i in respaced)} of them")
+        for i in sorted(respaced):
+            _respace(robot, poses, i, fractions[i], configurations[i], spaced[i])
         # Segment by segment; within one, backwards, so an insertion keeps the earlier indices valid.
         for i, k in sorted(found, key=lambda item: (item[0], -item[1])):
+            if i in respaced:
+                continue
             local = k - waypoint_via[i]
             if fractions[i][local + 1] - fractions[i][local] < 2 * MIN_FRACTION:  # no closer pose can help here:
                 _name_jump(robot, poses, fractions, configurations)  # a jump elsewhere may be why, not the tolerance
-            held = _at_least_duration(trajectory, k, least_duration)
-            _insert(robot, poses, i, local, fractions[i], configurations[i], distance[k], angle[k], held)
+            _insert(robot, poses, i, local, fractions[i], configurations[i], distance[k], angle[k],
+                    _at_least_duration(trajectory, k, least_duration))
     k = int(np.argmax(np.maximum(distance / tolerance_m, angle / tolerance_rad)))
     i = int(np.searchsorted(waypoint_via, k, side="right") - 1)
     raise IKError(f"path segment {i} (waypoint {i} -> {i + 1}): the tool still strays {1e3 * distance[k]:.3g} mm "
@@ -281,6 +303,42 @@ def _insert(robot: Robot, poses: list[pin.SE3], segment: int, local: int, fracti
     configurations.insert(local + 1, _pose_between(robot, poses, segment, low, high, before, after))
 
 
+def _even_counts(configurations: list[list[np.ndarray]], held: dict[int, tuple[float, str]]) -> dict[int, int]:
+    """Per path segment, the intervals that space every segment's poses as closely as half the
+    closest spacing of the segments ``held`` at their least duration, in joint motion (the largest
+    joint change [rad], summed over a segment's intervals): bisecting there would crowd slow segments
+    together, and a segment spaced coarser beside finer ones makes the spline overshoot at the
+    waypoint between them. Empty where none is held."""
+    if not held:
+        return {}
+    lengths = [sum(float(np.abs(b - a).max()) for a, b in zip(segment, segment[1:])) for segment in configurations]
+    step = min(lengths[i] / (len(configurations[i]) - 1) for i in held) / 2
+    return {i: max(len(segment) - 1, int(np.ceil(length / step - 1e-9)) if step > 0 else 1)
+            for i, (segment, length) in enumerate(zip(configurations, lengths))}
+
+
+def _respace(robot: Robot, poses: list[pin.SE3], segment: int, fractions: list[float],
+             configurations: list[np.ndarray], count: int) -> None:
+    """Replace the poses of ``segment`` (fractions along it and configurations [rad], both ends
+    included, changed in place) by ``count`` + 1 evenly spaced ones: a pose already there is kept,
+    another is solved between the two it falls between (``_pose_between``), so the branch is kept.
+
+    Raises:
+        IKError: as ``_pose_between``.
+    """
+    old_fractions, old_configurations = np.array(fractions), list(configurations)
+    spaced = np.linspace(0.0, 1.0, count + 1)
+    solved = []
+    for u in spaced:
+        j = min(int(np.searchsorted(old_fractions, u, side="right")) - 1, len(old_fractions) - 2)
+        if abs(u - old_fractions[j]) <= 1e-12 or abs(u - old_fractions[j + 1]) <= 1e-12:
+            solved.append(old_configurations[j if abs(u - old_fractions[j]) <= 1e-12 else j + 1])
+            continue
+        solved.append(_pose_between(robot, poses, segment, old_fractions[j], old_fractions[j + 1],
+                                    old_configurations[j], old_configurations[j + 1], u))
+    fractions[:], configurations[:] = spaced.tolist(), solved
+
+
 def _where(poses: list[pin.SE3], segment: int, u: float) -> str:
     """The segment, the fraction ``u`` along it and the position there, in words."""
     target = interpolate_pose(poses[segment], poses[segment + 1], u)
@@ -289,18 +347,20 @@ def _where(poses: list[pin.SE3], segment: int, u: float) -> str:
 
 
 def _pose_between(robot: Robot, poses: list[pin.SE3], segment: int, low: float, high: float,
-                  before: np.ndarray, after: np.ndarray) -> np.ndarray:
-    """The configuration [rad] of the pose halfway between fractions ``low`` and ``high`` of
-    ``segment``, whose neighbours are ``before`` and ``after``: IK from their mean, on the 2 pi turns
-    nearest it. Where that fails, or lands farther from the mean than the neighbours are apart
-    (another branch), IK from each neighbour too, keeping the solution nearest the mean.
+                  before: np.ndarray, after: np.ndarray, u: float | None = None) -> np.ndarray:
+    """The configuration [rad] of the pose at fraction ``u`` (default: halfway) between fractions
+    ``low`` and ``high`` of ``segment``, whose neighbours are ``before`` and ``after``: IK from their
+    linear interpolation at ``u`` (the middle), on the 2 pi turns nearest it. Where that fails, or
+    lands farther from the middle than the neighbours are apart (another branch), IK from each
+    neighbour too, keeping the solution nearest the middle.
 
     Raises:
         IKError: no configuration reaches the pose from the neighbours' (the line leaves the reachable
             workspace, or the branch followed runs into a range bound).
     """
-    target = interpolate_pose(poses[segment], poses[segment + 1], (low + high) / 2)
-    middle = (before + after) / 2
+    u = (low + high) / 2 if u is None else u
+    target = interpolate_pose(poses[segment], poses[segment + 1], u)
+    middle = before + (after - before) * (u - low) / (high - low)
     span = np.abs(after - before).max()
     found = []
     for seed in (middle, before, after):
@@ -311,7 +371,7 @@ def _pose_between(robot: Robot, poses: list[pin.SE3], segment: int, low: float, 
             break
     best, q, _ = min(found, key=lambda option: (option[0].residual > 1e-9, option[2], option[0].residual))
     if best.residual > 1e-9:
-        raise IKError(f"{_where(poses, segment, (low + high) / 2)}: IK from the neighbouring poses' configurations "
+        raise IKError(f"{_where(poses, segment, u)}: IK from the neighbouring poses' configurations "
                       f"reaches no configuration there within the joint ranges: the straight line leaves the reachable "
                       f"workspace, or the branch it follows runs into a range bound (best residual "
                       f"{best.position_error:.3g} m, {np.rad2deg(best.orientation_error):.3g} deg)",

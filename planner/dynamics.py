@@ -348,17 +348,25 @@ def check_resting_ends(robot: Robot, torque_limit: np.ndarray, via_points: np.nd
     says what to change (default: the limit or the waypoint).
 
     Raises:
-        InfeasibleError: naming the joint, the waypoint (first or last), g and the limit.
+        InfeasibleError: naming the joint, the waypoint (first or last), g and the limit of the end
+            furthest beyond a limit (relative to it), and the other end too where it is beyond one.
     """
     gravity = gravity_torques(robot, via_points[[0, -1]])
     over = np.abs(gravity) > torque_limit
-    if over.any():
-        end, joint = np.unravel_index(int(np.argmax(np.where(over, np.abs(gravity) / torque_limit, -np.inf))),
-                                      over.shape)
-        raise _held_still_beyond(robot, int(joint), float(gravity[end, joint]), float(torque_limit[joint]),
-                                 f"the {'first' if end == 0 else 'last'} waypoint, where the trajectory rests",
-                                 ": no timing helps; " + (remedy(0 if end == 0 else len(via_points) - 1) if remedy
-                                                          else "raise limits.torque_nm or move the waypoint"))
+    if not over.any():
+        return
+    ratio = np.where(over, np.abs(gravity) / torque_limit, -np.inf)
+
+    end, joint = (int(k) for k in np.unravel_index(int(np.argmax(ratio)), over.shape))
+    also = ""
+    if over[1 - end].any():  # both ends: the other is named too (its remedy once this one is met)
+        other = int(np.argmax(ratio[1 - end]))
+        also = (f"; the {'first' if end else 'last'} waypoint too (joint {robot.joint_names[other]!r}: "
+                f"{gravity[1 - end, other]:.4g} N m, limit {torque_limit[other]:.4g} N m)")
+    raise _held_still_beyond(robot, joint, float(gravity[end, joint]), float(torque_limit[joint]),
+                             f"the {'first' if end == 0 else 'last'} waypoint, where the trajectory rests",
+                             ": no timing helps; " + (remedy(0 if end == 0 else len(via_points) - 1) if remedy else
+                                                      "raise limits.torque_nm or move the waypoint") + also)
 
 
 def _no_common_slow_down(robot: Robot, check: RobotLimitCheck, gravity: np.ndarray, limit: np.ndarray,
