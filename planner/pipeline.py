@@ -87,7 +87,8 @@ class PlanResult:
         robot: the robot, for robot tasks.
         ik: one IK solution per Cartesian waypoint (residuals, branches, joint-space jumps).
         branch_times: total time [s] of each branch rule's sequence, when both were timed (None: that
-            rule's sequence could not be timed).
+            rule's sequence could not be timed); with torque or tool-speed limits, each kinematic
+            optimum slowed down uniformly to meet them (``meet_robot_limits``), the times compared.
         branch_kept: the rule (``optimal`` or ``continuous``) whose IK sequence was planned, or ``tracked``:
             in linear mode, the solutions the straight lines reach from a rule's first (``_follow_lines``).
         robot_limits: how the torque and tool-speed limits were met, where the task gives them.
@@ -670,6 +671,23 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         except PlannerError:
             return None
 
+    def compared_total(timed_rule) -> float | None:
+        """The total time [s] a rule's timed sequence is compared by: the kinematic optimum's, slowed down
+        uniformly to meet the torque and tool-speed limits where the task gives them (the sequence that
+        is faster kinematically may swing the tool wider or the arm heavier); None where it cannot be
+        timed or no slow-down meets them."""
+        if timed_rule is None:
+            return None
+        if not task.robot_limits.given:
+            return timed_rule[0].total_time
+        assert robot is not None
+        try:
+            slowed, _ = meet_robot_limits(robot, timed_rule[0], torque, task.robot_limits.tool_speed,
+                                          task.robot_limits.tool_angular_speed, timed_rule[0].via_times)
+        except InfeasibleError:
+            return None
+        return slowed.total_time
+
     branch_times: dict[str, float | None] = {}
     timed, kept = None, task.ik.branch if ik is not None else None
     # The other rule's sequence, where there is one that differs: (its IK, via-points, rule's name).
@@ -678,10 +696,10 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         other = np.array([solution.q for solution in alternative])
         if not np.allclose(other, via, rtol=0, atol=1e-9):
             mine, theirs = timed_or_none(via, "optimal"), timed_or_none(other, "continuous")
-            branch_times = {name: None if t is None else t[0].total_time
-                            for name, t in (("optimal", mine), ("continuous", theirs))}
+            branch_times = {"optimal": compared_total(mine), "continuous": compared_total(theirs)}
             timed, second = mine, (alternative, other, "continuous")
-            if theirs is not None and (mine is None or theirs[0].total_time < mine[0].total_time):
+            ours, others = branch_times["optimal"], branch_times["continuous"]
+            if others is not None and (ours is None or others < ours):
                 second = (ik, via, "optimal")
                 ik, via, timed, kept = alternative, other, theirs, "continuous"
     path = None
