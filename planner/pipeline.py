@@ -413,6 +413,21 @@ def _beyond_h_max(durations: np.ndarray, bounds: tuple[float, float] | None) -> 
     return bounds is not None and bool(ratio_exceeded(durations.max() / bounds[1]))
 
 
+def _narrower_h_max(problem: TimingProblem, factor: float) -> TimingProblem | None:
+    """``problem`` (which has duration bounds) with h_max divided by ``factor``, or None where that
+    leaves it below the shortest segment allowed or no timing within the narrower bounds meets the limits."""
+    assert problem.bounds is not None
+    h_max = problem.bounds[1] / factor
+    if h_max < problem.duration_floor:
+        return None
+    try:
+        return TimingProblem(problem.given_via_points, problem.family, problem.limits,
+                             bounds=(problem.bounds[0], h_max), objective=problem.objective_name,
+                             weights=problem.weights, min_duration=problem.duration_floor)
+    except PlannerError:
+        return None
+
+
 def _tightened(constraints: RobotConstraints, factor: float) -> RobotConstraints:
     """``constraints`` with every robot-aware limit divided by ``factor``."""
     def divided(limit):
@@ -707,11 +722,28 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         assert robot is not None
 
         def follow(points: np.ndarray):
+            """``follow_straight_lines`` from ``points``; where the time limit stopped some of its rounds'
+            timings and the lines are not followed, the refusal names the limit: a timing stopped early keeps
+            a start's shape, whose spline overshoots between the poses however many are inserted."""
             least = (task.min_segment_s, "trajectory.min_segment_s")
             if settings["bounds"] is not None and settings["bounds"][0] > task.min_segment_s:
                 least = (settings["bounds"][0], "optimizer.bounds_s")
-            return follow_straight_lines(robot, poses, points, time_via_points, task.path.tolerance_m,
-                                         task.path.tolerance_rad, progress.note, least)
+            stopped = []
+
+            def timed(points: np.ndarray):
+                trajectory, timing = time_via_points(points)
+                stopped.append(timing[1].out_of_time)
+                return trajectory, timing
+            try:
+                return follow_straight_lines(robot, poses, points, timed, task.path.tolerance_m,
+                                             task.path.tolerance_rad, progress.note, least)
+            except IKError as exc:
+                if not any(stopped):
+                    raise
+                raise IKError(f"the time limit of {settings['time_limit']:g} s (optimizer.time_limit_s) stopped "
+                              f"{sum(stopped)} of {len(stopped)} straight-line rounds' timings before they converged, "
+                              f"and a timing stopped early overshoots between the poses: raise or remove the time "
+                              f"limit (the last round: {exc})", waypoint=exc.waypoint, residual=exc.residual) from None
         sequences = [(ik, via, kept)] + ([second] if second is not None else [])
         path, (problem, result), ik, kept = _follow_lines(robot, poses, sequences, hints, limits, task.ik.seed,
                                                           follow, progress)
@@ -739,14 +771,15 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         trajectory, met = meet(trajectory)
         constraints = RobotConstraints(robot, torque, given.tool_speed, given.tool_angular_speed)
 
-        def retime(nlp_limits: RobotConstraints, start_durations: np.ndarray):
-            """The NLP's timing with ``nlp_limits`` from ``start_durations`` (S,) [s], slowed down to meet the
+        def retime(nlp_limits: RobotConstraints, start_durations: np.ndarray, timing: TimingProblem = problem):
+            """The NLP's timing of ``timing`` (the kinematic problem, or one with a tighter h_max) with
+            ``nlp_limits`` from ``start_durations`` (S,) [s], slowed down to meet the
             robot limits densely (``meet``), with its kinematic figures and path; None where it cannot be kept:
             the new durations reshape the spline between via-points, so its positions may leave a range (and in
             linear mode the tool the straight lines) where the kinematic optimum's did not, or its path may need
             more than a torque limit to hold still."""
             with time_limit(max(deadline - time.monotonic(), 0.0)):
-                retimed = problem.trajectory(*robot_refine(problem, nlp_limits, start_durations))
+                retimed = problem.trajectory(*robot_refine(timing, nlp_limits, start_durations))
             try:
                 candidate, candidate_met = meet(retimed)
             except InfeasibleError:
@@ -770,10 +803,18 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
             found = retime(constraints, result.durations * met.slow_down)
             if found is not None and _beyond_h_max(found[0].durations, settings["bounds"]):
                 # The dense check slowed the NLP's timing (its samples are sparser) past h_max: once more, with
-                # the robot limits tightened by that slow-down, so that the dense check needs little or none.
-                progress.note(f"slowed down {found[1].slow_down:.6g} times, the NLP's timing breaks h_max; timing "
-                              f"again with the torque and tool-speed limits {found[1].slow_down:.6g} times tighter")
-                tighter = retime(_tightened(constraints, found[1].slow_down), found[0].durations)
+                # the robot limits tightened by that slow-down, so that the dense check needs little or none;
+                # where a segment still ends on h_max, that little breaks it: then h_max tightened too.
+                factor = found[1].slow_down
+                progress.note(f"slowed down {factor:.6g} times, the NLP's timing breaks h_max; timing again with the "
+                              f"torque and tool-speed limits {factor:.6g} times tighter")
+                tighter = retime(_tightened(constraints, factor), found[0].durations)
+                narrower = _narrower_h_max(problem, factor)
+                if (tighter is None or _beyond_h_max(tighter[0].durations, settings["bounds"])) and narrower:
+                    progress.note(f"still beyond h_max; timing again with h_max {factor:.6g} times tighter too")
+                    assert narrower.bounds is not None
+                    tighter = retime(_tightened(constraints, factor),
+                                     np.clip(found[0].durations / factor, *narrower.bounds), narrower)
                 if tighter is not None and not _beyond_h_max(tighter[0].durations, settings["bounds"]):
                     found = tighter
             if found is not None and found[0].total_time < trajectory.total_time:

@@ -755,3 +755,25 @@ def test_a_via_interval_is_held_at_its_least_duration_where_any_of_its_segments_
     assert _at_least_duration(knots, interval, (1.0, "k")) == ((1.0, "k") if held else None)
     assert _at_least_duration(knots, interval, (0.0, "")) is None
     assert _at_least_duration(knots, interval, (0.9999999, "k")) == ((0.9999999, "k") if held else None)
+
+
+def test_straight_lines_not_followed_after_the_time_limit_stopped_the_timing_name_the_limit():
+    """Four pick-and-place poses in linear mode, fast joints, a time limit of 10 ms: every round's timing
+    stops at its first feasible start, whose spline overshoots between the poses however many are
+    inserted. The refusal blamed the tolerance ("allow a larger path.tolerance_m", sweep 18); it names the
+    time limit first now, and keeps the last round's failure."""
+    poses = [{"xyz_m": [0.4, -0.25, 0.35], "rpy_deg": [180, 0, 90]},
+             {"xyz_m": [0.4, -0.25, 0.12], "rpy_deg": [180, 0, 90]},
+             {"xyz_m": [0.4, -0.25, 0.35], "rpy_deg": [180, 0, 90]},
+             {"xyz_m": [0.25, 0.35, 0.4], "rpy_deg": [180, 0, 45]}]
+    task = {"version": 1, "robot": {"name": "ur5", "tool_frame": "tool0"}, "waypoints": {"cartesian": poses},
+            "limits": {"acceleration_deg_s2": [1500, 1500, 1500, 3000, 3000, 3000],
+                       "jerk_deg_s3": [6000, 6000, 6000, 12000, 12000, 12000]},
+            "path": {"mode": "linear", "tolerance_m": 0.001, "tolerance_deg": 0.5},
+            "optimizer": {"time_limit_s": 0.01}}
+    with pytest.raises(IKError, match=r"^the time limit of 0\.01 s \(optimizer\.time_limit_s\) stopped (\d+) of \1 "
+                                      r"straight-line rounds' timings before they converged, .*: raise or remove "
+                                      r"the time limit \(the last round: path segment \d"):
+        plan(task)
+    unlimited = plan({**task, "optimizer": {}})
+    assert unlimited.path.max_distance_m.max() <= 1e-3
