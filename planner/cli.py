@@ -121,7 +121,7 @@ def _replay(args) -> int:
                    if given is not None and not check.passed]
         print(f"{args.recording}: {len(recorded.joint_names)} joints, {len(recorded.times)} samples, "
               f"T = {recorded.trajectory.total_time:.4f} s, largest ratio {_ratio(check.largest_ratio)}, "
-              f"samples vs trajectory {check.deviation:.2e} rad (allowed {check.tolerance:.2e}), "
+              f"samples vs trajectory {check.deviation:.3e} rad (allowed {check.tolerance:.3e}), "
               f"{', '.join(findings) or 'limits hold'}"
               + (f"; {' and '.join(skipped)} not written: the check failed" if skipped else ""))
         if not check.passed:

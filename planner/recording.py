@@ -71,8 +71,17 @@ _DEFINITION = "/trajectory/definition"
 _END = "/trajectory/end"
 _SUMMARY = "/summary"
 _SCALARS = "Scalars:scalars"
-#: Rerun keeps times in whole nanoseconds, rounded: a recorded time is within this of the planner's [ns].
+#: Rerun keeps times in whole nanoseconds (``_time_index`` rounds them to the nearest): a recorded time
+#: is within half of this of the planner's [ns].
 _TIME_QUANTUM_NS = 1.0
+
+
+def _time_index(times) -> list:
+    """Rerun's time index of times [s], each rounded to the nearest whole nanosecond (Rerun's own
+    conversion of seconds truncates: 2155.47 s became 2155.469999999 s)."""
+    import rerun as rr
+    nanoseconds = np.round(np.asarray(times, dtype=float) * 1e9).astype(np.int64)
+    return [rr.TimeColumn("time", duration=nanoseconds.astype("timedelta64[ns]"))]
 
 
 def _entity(*parts: str) -> str:
@@ -172,7 +181,7 @@ def _log_profile(rec, profile: str, name: str, colour, index: list, values: np.n
             entity = _entity("profiles", profile, "limits", name, side)
             rec.log(entity, rr.SeriesLines(names=name, colors=[colour], widths=0.75), static=True)
             dash_times, dash_values = _dashed(float(bound), total_time)
-            rec.send_columns(entity, indexes=[rr.TimeColumn("time", duration=dash_times)],
+            rec.send_columns(entity, indexes=_time_index(dash_times),
                              columns=rr.Scalars.columns(scalars=dash_values))
 
 
@@ -242,14 +251,14 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
     names = result.joint_names
     rate_hz = rate_hz or result.task.sample_rate_hz
     times = trajectory.sample_times(rate_hz)
-    time_index = [rr.TimeColumn("time", duration=times)]
+    time_index = _time_index(times)
     if len(times) > PROFILE_SAMPLES:  # what a person looks at: the trajectory's own values, at fewer times
         plot_times, plot_values = trajectory.sample(PROFILE_SAMPLES / trajectory.total_time)
         positions = trajectory.evaluate(times)  # every sample: the robot's motion, and what replay --check reads
     else:
         plot_times, plot_values = times, trajectory.states(times)
         positions = plot_values[0]
-    plot_index = [rr.TimeColumn("time", duration=plot_times)]
+    plot_index = _time_index(plot_times)
     rec = rr.RecordingStream(APPLICATION_ID, recording_id=f"{result.task.name}-{id(result)}")
     # Into memory, then one ordinary write: Rerun's own file sink left the plan hanging for good (deaf
     # to Ctrl-C and SIGTERM) in a flush after its writer thread died of a full disk.
@@ -277,7 +286,7 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
         for j, name in enumerate(names):
             _log_profile(rec, "torque", name, joint_colour(j), plot_index, torques[:, j],
                          (-torque_limit[j], torque_limit[j]), trajectory.total_time)
-    via_index = [rr.TimeColumn("time", duration=trajectory.via_times)]
+    via_index = _time_index(trajectory.via_times)
     via_positions = trajectory.evaluate(trajectory.via_times)
     for j, name in enumerate(names):
         entity = _entity("profiles", "position", "via_points", name)
@@ -374,7 +383,7 @@ def _log_robot(rec, result, times: np.ndarray, positions: np.ndarray):
             raise RecordingError(f"Rerun cannot read the URDF {robot.urdf_path}: {exc}") from None
         tree.log_urdf_to_recording(rec)
     planned = {name: j for j, name in enumerate(robot.joint_names)}
-    time_index = [rr.TimeColumn("time", duration=times)]
+    time_index = _time_index(times)
     for joint in tree.joints():
         if joint.joint_type == "fixed":
             continue
@@ -593,8 +602,10 @@ class RecordedPlan:
         (``via_point_misses``), and compare the samples with the trajectory."""
         figures = kinematic_figures(self.trajectory)
         deviation = float(np.abs(self.trajectory.evaluate(self.times) - self.positions).max())
-        # A sample may sit up to one time quantum off its time: allow the position change over it.
-        tolerance = _TIME_QUANTUM_NS * 1e-9 * float(figures.max_abs[0].max()) + 1e-12
+        # A sample may sit up to half a time quantum off its time: allow the position change over a whole
+        # one, and a few units in the last place of the largest position (the positions' own rounding).
+        largest = float(np.abs(self.positions).max(initial=0.0))
+        tolerance = _TIME_QUANTUM_NS * 1e-9 * float(figures.max_abs[0].max()) + 1e-12 + 8 * float(np.spacing(largest))
         ratio = float(np.nan_to_num(figures.ratios(self.limits)).max())
         found = [str(v) for v in figures.violations(self.limits)] + continuity_breaks(self.trajectory, self.joint_names)
         if self.via_points is not None:
