@@ -248,6 +248,16 @@ def _check_folder(folder: Path, force: bool, files: set[str]) -> tuple[Path, boo
     return folder, in_place
 
 
+def _longer_names_hint(exc: OSError) -> str:
+    """Where a name was too long: the planner's names beside (or in) an output folder NAME, which a
+    name the file system takes may still exceed, and how short NAME must be; else ""."""
+    if exc.errno != errno.ENAMETOOLONG:
+        return ""
+    extra = len(".staging-") + 1 + _STAGING_DIGITS  # the longest: the lock's .NAME.lock is shorter
+    return (f"; the planner locks it as .NAME.lock and stages its outputs as .NAME.staging-XXXXXXXX, up to {extra} "
+            f"bytes longer than its name: shorten it to at most {255 - extra} bytes")
+
+
 class _Lock:
     """An exclusive ``flock`` on ``.NAME.lock`` beside a folder, removed when released."""
 
@@ -402,7 +412,8 @@ def output_folder(path, *, force: bool = False, files: Iterable[str] = ()) -> It
         lock.acquire()
     except OSError as exc:  # /proc, a name too long, a full disk: the path cannot take outputs
         _remove_empty(created)
-        raise OutputError(f"output folder {folder}: cannot write there ({exc.strerror or exc})") from None
+        raise OutputError(f"output folder {folder}: cannot write there ({exc.strerror or exc})"
+                          f"{_longer_names_hint(exc)}") from None
     staging, published = None, False
     try:
         stale_places = [folder.parent] + ([folder] if folder.is_dir() else [])  # beside it, or inside (--force)
@@ -417,12 +428,8 @@ def output_folder(path, *, force: bool = False, files: Iterable[str] = ()) -> It
             os.mkdir(staging, 0o777)  # the umask applies, as to any folder the user makes
         except OSError as exc:
             staging = None
-            hint = ""
-            if exc.errno == errno.ENAMETOOLONG and not in_place:
-                extra = len(".staging-") + 1 + _STAGING_DIGITS
-                hint = (f"; the outputs are staged beside it as .NAME.staging-XXXXXXXX, {extra} bytes longer than its "
-                        f"name: shorten it to at most {255 - extra} bytes")
-            raise OutputError(f"output folder {folder}: cannot write there ({exc.strerror or exc}){hint}") from None
+            raise OutputError(f"output folder {folder}: cannot write there ({exc.strerror or exc})"
+                              f"{_longer_names_hint(exc)}") from None
         (staging / STAGING_MARKER).touch()
         yield staging
         check_interrupted()  # an interruption a library swallowed must not publish half a run

@@ -547,14 +547,17 @@ def test_an_existing_file_is_replaced_only_with_force(tmp_path):
     assert target.read_text() == "new"
 
 
-def test_a_name_too_long_for_its_staging_folder_says_how_long_it_may_be(tmp_path):
+@pytest.mark.parametrize("length", [238, 240, 249, 250, 255])
+def test_a_name_too_long_for_its_staging_folder_says_how_long_it_may_be(tmp_path, length):
     """A new folder of 238-255 bytes is a valid name, but the staging folder beside it is 18 bytes
-    longer: the message says so, and a name of 237 bytes is written."""
-    with pytest.raises(OutputError, match=r"File name too long\); the outputs are staged beside it as "
-                                          r"\.NAME\.staging-XXXXXXXX, 18 bytes longer than its name: shorten it "
-                                          r"to at most 237 bytes$"):
-        with outputs.output_folder(tmp_path / ("n" * 240), files=["a.txt"]):
+    longer (and its lock 6 bytes: from 250 bytes on, the lock failed first, without the hint; sweep 18):
+    the message says so, and a name of 237 bytes is written."""
+    with pytest.raises(OutputError, match=r"File name too long\); the planner locks it as \.NAME\.lock and stages "
+                                          r"its outputs as \.NAME\.staging-XXXXXXXX, up to 18 bytes longer than its "
+                                          r"name: shorten it to at most 237 bytes$"):
+        with outputs.output_folder(tmp_path / ("n" * length), files=["a.txt"]):
             pass
+    assert not any(tmp_path.iterdir())
     with outputs.output_folder(tmp_path / ("n" * 237), files=["a.txt"]) as staging:
         (staging / "a.txt").write_text("written")
     assert (tmp_path / ("n" * 237) / "a.txt").read_text() == "written"
