@@ -227,7 +227,23 @@ def test_another_commands_outputs_are_kept_as_a_users_files(tmp_path):
     write_outputs(out, {"summary.json": "plan 3", "x.csv": "x"}, files=("summary.json", "x.csv"),
                   force=True)  # a plan file this run does not write is the planner's of another name: kept
     assert (out / "trajectory.csv").read_text() == "t2"
+    # Another command's file deleted by the user drops out of the marker at the next write beside it.
+    (out / "reproduction.md").unlink()
+    write_outputs(out, {"summary.json": "plan 4"}, files=("summary.json",), force=True)
+    assert outputs._planner_files(out) == {"summary.json", "trajectory.csv", "x.csv"}
+    # A run that does not name its files replaces the planner's whole (--force): the marker lists only its own.
+    write_outputs(out, {"a.txt": "a"}, force=True)
+    assert outputs._planner_files(out) == set(contents(out)) - {MARKER}
     assert leftovers(tmp_path) == []
+
+
+def test_a_refusal_of_many_of_another_commands_outputs_names_five_and_says_there_are_more(tmp_path):
+    out = tmp_path / "out"
+    many = {f"file{k}.csv": str(k) for k in range(7)}
+    write_outputs(out, many, files=tuple(many))
+    with pytest.raises(OutputError, match=r"\('file0.csv, file1.csv, file2.csv, file3.csv, file4.csv, \.\.\.': "
+                                          r"another command's"):
+        write_outputs(out, {"report.md": "r"}, files=("report.md",))
 
 
 def test_the_plan_command_writes_to_out_and_the_task_files_name_by_default(tmp_path, monkeypatch, task, capsys):
