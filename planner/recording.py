@@ -376,9 +376,12 @@ def _log_robot(rec, result, times: np.ndarray, positions: np.ndarray):
 
     robot = result.robot
     _check_urdf_unchanged(robot)
-    with _ros_package_path(robot.package_dirs):
+    from .robot import drawable_urdf
+    with _ros_package_path(robot.package_dirs), tempfile.TemporaryDirectory(prefix="planner-urdf-") as folder:
+        drawn = Path(folder) / robot.urdf_path.name  # its meshes by their checked absolute paths only
+        drawn.write_bytes(drawable_urdf(robot.urdf_path, robot.package_dirs))
         try:
-            tree = rru.UrdfTree.from_file_path(robot.urdf_path, entity_path_prefix="robot")
+            tree = rru.UrdfTree.from_file_path(drawn, entity_path_prefix="robot")
         except Exception as exc:  # rerun raises plain exceptions for unreadable URDFs
             raise RecordingError(f"Rerun cannot read the URDF {robot.urdf_path}: {exc}") from None
         tree.log_urdf_to_recording(rec)
@@ -391,9 +394,15 @@ def _log_robot(rec, result, times: np.ndarray, positions: np.ndarray):
         if joint.name in planned:
             angles = positions[:, planned[joint.name]].tolist()
             rec.send_columns(entity, indexes=time_index, columns=joint.compute_transform_columns(angles, clamp=False))
-        else:  # held where the planner's model holds it (inside its range)
+        elif joint.joint_type in ("revolute", "continuous", "prismatic"):  # held where the planner's model holds it
             rec.log(entity, joint.compute_transform(robot.locked_positions.get(joint.name, 0.0), clamp=False),
                     static=True)
+        else:  # floating or planar, off the chain (Rerun computes no transform of these): at its origin, as locked
+            from scipy.spatial.transform import Rotation
+            rec.log(entity, rr.Transform3D(translation=joint.origin_xyz,
+                                           quaternion=rr.Quaternion(xyzw=Rotation.from_euler(
+                                               "xyz", joint.origin_rpy).as_quat()),
+                                           parent_frame=joint.parent_link, child_frame=joint.child_link), static=True)
     root = rr.CoordinateFrame(tree.root_link().name)
     tool = np.array([robot.forward_kinematics(q).translation for q in positions])
     rec.log("scene/tool_path", rr.LineStrips3D([tool], colors=[_TOOL_PATH_COLOUR], radii=0.003), root, static=True)

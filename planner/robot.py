@@ -151,6 +151,7 @@ class Robot:
             raise RobotFileError(f"cannot load URDF {path}: larger than {MAX_URDF_BYTES >> 20} MiB "
                                  f"(a robot description, its meshes apart, is well under 1 MiB)", path=path)
         _check_utf8(path)
+        _check_well_formed(path)
         with stderr_captured() as parser_log:
             failure: Exception | None
             try:
@@ -333,13 +334,35 @@ def _mesh_file(filename: str, urdf_path: Path, package_dirs) -> Path | None:
 
 def urdf_elements(urdf_path: Path, tag: str) -> list:
     """The ``<tag>`` elements directly under the URDF's ``<robot>`` (ElementTree elements); [] where
-    the file cannot be read as plain XML (a dialect Pinocchio reads and ElementTree does not)."""
+    the file cannot be read (a URDF given by path is refused before unless well-formed:
+    ``_check_well_formed``)."""
     import xml.etree.ElementTree as ElementTree
 
     try:
         return ElementTree.parse(urdf_path).getroot().findall(tag)
     except (OSError, ElementTree.ParseError):
         return []
+
+
+def _check_well_formed(path: Path) -> None:
+    """Refuse a URDF that is not well-formed XML (text after ``</robot>``, say): Pinocchio's and Rerun's
+    parsers accept some such files, but the planner's own checks (mimic joints, limits, masses,
+    meshes: ``urdf_elements``) read the file as XML, and would pass it unchecked.
+
+    Raises:
+        RobotFileError: naming the XML error and where it is.
+    """
+    import xml.etree.ElementTree as ElementTree
+
+    try:
+        ElementTree.parse(path)
+    except ElementTree.ParseError as exc:
+        xacro = "xacro:" in path.read_text(encoding="utf-8", errors="replace")
+        remedy = "expand the xacro macros first (xacro FILE > ROBOT.urdf)" if xacro else "fix the file"
+        raise RobotFileError(f"cannot load URDF {path}: not well-formed XML ({exc}); the planner's checks of its "
+                             f"joints, masses and meshes read it as XML: {remedy}", path=path) from None
+    except OSError as exc:
+        raise RobotFileError(f"cannot load URDF {path}: cannot read it ({exc.strerror or exc})", path=path) from None
 
 
 def _check_utf8(path: Path) -> None:
@@ -425,6 +448,31 @@ def check_meshes(urdf_path: Path, package_dirs) -> tuple[str, ...]:
             if status.st_size > MAX_MESH_BYTES:
                 raise RobotFileError(f"{where} is larger than {MAX_MESH_BYTES >> 20} MiB", path=path)
     return tuple(dict.fromkeys(missing))
+
+
+def drawable_urdf(urdf_path: Path, package_dirs) -> bytes:
+    """The URDF as the recording hands it to Rerun's importer: every mesh named by the absolute path of
+    the regular file ``check_meshes`` resolved, and each ``<visual>`` or ``<collision>`` whose mesh is
+    not found, or is no regular file, left out. So the importer opens only files the planner checked:
+    left to itself it resolves a ``package://NAME/...`` that no package root holds against the current
+    folder (a pipe or ``/dev/zero`` reached so hung the recording or filled the memory)."""
+    import xml.etree.ElementTree as ElementTree
+
+    tree = ElementTree.parse(urdf_path)
+    for link in tree.getroot().findall("link"):
+        for element in [e for kind in ("visual", "collision") for e in link.findall(kind)]:
+            for mesh in element.iter("mesh"):
+                try:
+                    path = _mesh_file(mesh.get("filename") or "", urdf_path, package_dirs)
+                    found = path is not None and os.path.isfile(path)
+                except (OSError, ValueError):
+                    found = False
+                if not found:
+                    link.remove(element)
+                    break
+                assert path is not None
+                mesh.set("filename", str(Path(path).resolve()))
+    return ElementTree.tostring(tree.getroot(), encoding="utf-8")
 
 
 def _first_line(text: str) -> str:

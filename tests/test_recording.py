@@ -922,3 +922,24 @@ def test_a_mesh_changed_after_planning_is_not_drawn(tmp_path, change):
     with pytest.raises(RecordingError, match=expected):
         result.save(tmp_path / "out")
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("kind", ["floating", "planar"])
+def test_a_floating_or_planar_joint_off_the_chain_is_drawn_at_its_origin(tmp_path, kind):
+    """A body hung on a floating (or planar) joint beside the arm: the plan locks it, and the recording
+    failed with an internal NotImplementedError (Rerun computes no transform of such joints; sweep 19).
+    It is drawn at the joint's origin, and the recording reads back and checks."""
+    from planner import make_task
+
+    urdf = tmp_path / "two.urdf"
+    urdf.write_text(f"""<robot name="two"><link name="base"/>
+  <link name="arm"><visual><geometry><box size="0.1 0.1 0.5"/></geometry></visual></link>
+  <link name="obj"><visual><geometry><box size="0.05 0.05 0.05"/></geometry></visual></link>
+  <joint name="shoulder" type="revolute"><parent link="base"/><child link="arm"/><axis xyz="0 0 1"/>
+    <limit lower="-3" upper="3" velocity="1" effort="1"/></joint>
+  <joint name="free" type="{kind}"><parent link="base"/><child link="obj"/><origin xyz="0.5 0 0.3"/>
+    <axis xyz="0 0 1"/></joint></robot>""")
+    result = plan(make_task(robot={"urdf": urdf, "tool_frame": "arm"}, joints_deg=[[0], [10]],
+                            limits={"acceleration_deg_s2": [10], "jerk_deg_s3": [10]}))
+    result.save(tmp_path / "out")
+    assert read_recording(tmp_path / "out" / "trajectory.rrd").check().passed

@@ -501,3 +501,40 @@ def test_a_limits_file_gives_the_planned_joints_or_every_joint_of_the_urdf(tmp_p
                                              r"\(joint1, .*, joint6\), or 8, one per joint of the URDF \(joint1, .*, "
                                              r"finger2\), got \[10, 20, 30\]$"):
         Robot.from_urdf(urdf, "tool")
+
+
+@pytest.mark.parametrize("text, remedy", [
+    (MESH_ARM.format(mesh="link.stl") + "<extra/>\n", "fix the file"),
+    (MESH_ARM.format(mesh="link.stl").replace('<robot name="meshy">', '<robot name="meshy">\n  <xacro:property '
+                                                                      'name="l" value="1"/>'),
+     r"expand the xacro macros first \(xacro FILE > ROBOT\.urdf\)")])
+def test_a_urdf_that_is_not_well_formed_xml_is_refused(tmp_path, text, remedy):
+    """Pinocchio's parser takes text after </robot>, but the planner's checks (mimic joints, limits, masses,
+    meshes) read the file as XML and were silently skipped: a mimic joint was planned as a free one
+    (sweep 19). Such a file is refused, naming the XML error and where."""
+    urdf = tmp_path / "meshy.urdf"
+    urdf.write_text(text)
+    with pytest.raises(RobotFileError, match=rf"meshy\.urdf: not well-formed XML \(.*: line \d+, column \d+\); the "
+                                             rf"planner's checks .* read it as XML: {remedy}$"):
+        Robot.from_urdf(urdf, "arm")
+
+
+def test_the_urdf_drawn_names_only_the_meshes_checked(tmp_path, monkeypatch):
+    """Rerun's importer resolved a package:// mesh that no package root holds against the current folder
+    (and opened a pipe there, hanging the save; sweep 19). The URDF it is handed names each mesh found by
+    its absolute path and leaves out a visual whose mesh is not found."""
+    import xml.etree.ElementTree as ElementTree
+
+    from planner.robot import drawable_urdf
+    (tmp_path / "link.stl").write_bytes(b"solid x\nendsolid x\n")
+    urdf = tmp_path / "meshy.urdf"
+    urdf.write_text(MESH_ARM.format(mesh="link.stl").replace(
+        '<link name="base"/>', '<link name="base"><visual><geometry><mesh filename="package://pkg/m.stl"/>'
+                               '</geometry></visual></link>'))
+    (tmp_path / "cwd" / "pkg").mkdir(parents=True)
+    monkeypatch.chdir(tmp_path / "cwd")
+    robot = Robot.from_urdf(urdf, "arm")
+    assert robot.missing_meshes == ("package://pkg/m.stl",)
+    root = ElementTree.fromstring(drawable_urdf(urdf, robot.package_dirs))
+    assert [m.get("filename") for m in root.iter("mesh")] == [str((tmp_path / "link.stl").resolve())]
+    assert root.find("link[@name='base']").find("visual") is None
