@@ -358,6 +358,26 @@ def retimes_in_nlp(optimizer: dict) -> bool:
     return optimizer["algorithm"] in ROBOT_AWARE_ALGORITHMS and optimizer["settings"].get("polish") is not False
 
 
+#: The longest trajectory a recording holds [s]: Rerun's timeline counts whole nanoseconds in 64 bits.
+MAX_RECORDED_S = 9.2e9
+
+
+def check_recordable(total_time: float, *, lower_bound: bool = False,
+                     slowed: RobotLimitOutcome | None = None) -> None:
+    """Refuse a trajectory longer than ``MAX_RECORDED_S`` (292 years): its recording's times would
+    overflow, and replay would find no samples in it.
+
+    Raises:
+        TaskError: naming the limits (or the robot-aware limit that made it this long) and the duration.
+    """
+    if total_time < MAX_RECORDED_S:
+        return
+    key = "limits" if slowed is None or total_time <= slowed.kinematic_total_s else _binding_limit(slowed)
+    raise TaskError(key, f"the trajectory would last {'at least ' if lower_bound else ''}{total_time:.4g} s, "
+                         f"beyond the {MAX_RECORDED_S:.3g} s (292 years) that a recording's timeline of whole "
+                         f"nanoseconds holds: raise the limits (or lower the duration bounds)")
+
+
 def check_sample_count(task: Task, total_time: float, *, lower_bound: bool = False,
                        slowed: RobotLimitOutcome | None = None, out_of_time: bool = False) -> None:
     """Refuse a trajectory whose outputs at ``trajectory.sample_rate_hz`` would exceed ``MAX_SAMPLES`` samples.
@@ -636,7 +656,9 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
     if robot is None:
         limits = JointLimits.create(via.shape[1], **task.limits)
 
-    check_sample_count(task, shortest_total_time(via, limits, task), lower_bound=True)
+    shortest = shortest_total_time(via, limits, task)
+    check_recordable(shortest, lower_bound=True)
+    check_sample_count(task, shortest, lower_bound=True)
     start = time.perf_counter()
     settings = task.optimizer
     # One time limit for all of the plan's timing runs (both IK sequences', every straight-line round's):
@@ -828,6 +850,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         elif met.slow_down > 1:
             progress.note(f"slowed down {met.slow_down:.6g} times to meet the torque and tool-speed limits")
         timings["robot_limits"] = time.perf_counter() - start
+    check_recordable(trajectory.total_time, slowed=met)
     check_sample_count(task, trajectory.total_time, slowed=met, out_of_time=result.out_of_time)
     if figures is None:
         figures = kinematic_figures(trajectory)

@@ -596,3 +596,19 @@ def test_a_planned_trajectory_that_misses_a_via_point_is_refused_with_the_fields
     error = raised.value
     assert (error.joint, error.quantity) == (1, "position") and error.value == pytest.approx(1e-3, rel=1e-6)
     assert error.limit == pytest.approx(2e-9 * max(1.0, abs(np.deg2rad(paper.VIA_POINTS_DEG[2][1]))), rel=1e-9)
+
+
+def test_a_trajectory_longer_than_a_recording_holds_is_refused(tmp_path):
+    """Limits of 1e-9 deg/s (within their documented range) made a 1.5e10 s trajectory; its recording's
+    nanosecond times overflowed 64 bits and replay found no samples (sweep 19). It is refused before the
+    timing; 5e9 s still fits, and its recording reads back and checks."""
+    from planner.recording import read_recording
+    task = {"version": 1, "waypoints": {"joints_deg": [[0], [10]]}, "limits": {"velocity_deg_s": [1e-9]},
+            "trajectory": {"family": "cubic", "sample_rate_hz": 1e-7}}
+    with pytest.raises(TaskError, match=r"^limits: the trajectory would last at least 1e\+10 s, beyond the 9\.2e\+09 s "
+                                        r"\(292 years\) that a recording's timeline"):
+        plan(task)
+    result = plan({**task, "limits": {"velocity_deg_s": [3e-9]}})
+    assert 4e9 < result.trajectory.total_time < 9.2e9
+    result.save(tmp_path / "out")
+    assert read_recording(tmp_path / "out" / "trajectory.rrd").check().passed
