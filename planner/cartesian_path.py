@@ -27,7 +27,8 @@ interval whose tool strays beyond ``MARGIN`` of a tolerance, and repeats until
 none does. The margin covers what lies between samples. Where the timing holds
 such an interval's segments at their least duration (``trajectory.min_segment_s``
 or h_min), bisecting would crowd slow segments there, which the spline overshoots:
-the segment's poses are then spaced evenly instead, twice as many as it had. Where a round's
+every segment's poses are then spaced evenly instead, as closely (in joint motion)
+as half the held segment's spacing (``_even_counts``). Where a round's
 via-points cannot be timed, the intervals of largest joint change are bisected by
 IK alone (``_name_jump``): a motion that jumps (a singularity on the line) is
 then named as the segment's error rather than the timing's.
@@ -175,9 +176,10 @@ def follow_straight_lines(robot: Robot, poses: list[pin.SE3], waypoint_q: np.nda
         tolerance_m, tolerance_rad: the largest distance [m] and angle [rad] allowed.
         note: told one line per round: how far the tool strays and what happens next.
         least_duration: the shortest segment the timing allows [s] and the task key that sets it
-            (``trajectory.min_segment_s`` or ``optimizer.bounds_s``): a segment of the path with an
-            interval beyond the tolerances whose timed segments last no longer gets twice as many poses,
-            spaced evenly (``_respace``), and where they cannot come closer a refusal names it.
+            (``trajectory.min_segment_s`` or ``optimizer.bounds_s``): where an interval beyond the
+            tolerances has timed segments that last no longer, the poses of every path segment are
+            spaced evenly (``_even_counts``, ``_respace``), and where they cannot come closer a refusal
+            names it.
 
     Raises:
         IKError: a segment that leaves the reachable workspace, or that no joint

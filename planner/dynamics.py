@@ -356,7 +356,6 @@ def check_resting_ends(robot: Robot, torque_limit: np.ndarray, via_points: np.nd
     if not over.any():
         return
     ratio = np.where(over, np.abs(gravity) / torque_limit, -np.inf)
-
     end, joint = (int(k) for k in np.unravel_index(int(np.argmax(ratio)), over.shape))
     also = ""
     if over[1 - end].any():  # both ends: the other is named too (its remedy once this one is met)

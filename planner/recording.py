@@ -324,7 +324,8 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
 @contextmanager
 def _ros_package_path(package_dirs):
     """``ROS_PACKAGE_PATH`` set, for the block, to ``robot.package_roots(package_dirs)``, so that
-    Rerun's URDF importer resolves ``package://NAME/...`` meshes as the robot's mesh check does."""
+    Rerun's URDF importer resolves what the drawn copy (``robot.drawable_urdf``, its meshes by absolute
+    path) still names as ``package://NAME/...`` (a material's texture) under the robot's package roots."""
     from .robot import package_roots  # here: replaying a recording needs no Pinocchio
 
     previous = os.environ.get("ROS_PACKAGE_PATH")
