@@ -211,11 +211,9 @@ def follow_straight_lines(robot: Robot, poses: list[pin.SE3], waypoint_q: np.nda
         if rounds == MAX_ROUNDS:
             break
         found = [(int(np.searchsorted(waypoint_via, k, side="right") - 1), int(k)) for k in np.flatnonzero(exceeded)]
-        held: dict[int, tuple[float, str]] = {}  # path segment: the least duration an interval of it is held at
-        for i, k in found:
-            least = _at_least_duration(trajectory, k, least_duration)
-            if least is not None:
-                held[i] = least
+        least_at = {k: _at_least_duration(trajectory, k, least_duration) for _, k in found}
+        # path segment: the least duration an interval of it is held at
+        held = {i: least for i, k in found if (least := least_at[k]) is not None}
         spaced = _even_counts(configurations, held)
         respaced = {i for i, count in spaced.items() if count > counts[i] and 1 / count >= 2 * MIN_FRACTION}
         added = sum(spaced[i] - counts[i] for i in respaced) + sum(i not in respaced for i, _ in found)
@@ -239,8 +237,7 @@ def follow_straight_lines(robot: Robot, poses: list[pin.SE3], waypoint_q: np.nda
             local = k - waypoint_via[i]
             if fractions[i][local + 1] - fractions[i][local] < 2 * MIN_FRACTION:  # no closer pose can help here:
                 _name_jump(robot, poses, fractions, configurations)  # a jump elsewhere may be why, not the tolerance
-            _insert(robot, poses, i, local, fractions[i], configurations[i], distance[k], angle[k],
-                    _at_least_duration(trajectory, k, least_duration))
+            _insert(robot, poses, i, local, fractions[i], configurations[i], distance[k], angle[k], least_at[k])
     k = int(np.argmax(np.maximum(distance / tolerance_m, angle / tolerance_rad)))
     i = int(np.searchsorted(waypoint_via, k, side="right") - 1)
     raise IKError(f"path segment {i} (waypoint {i} -> {i + 1}): the tool still strays {1e3 * distance[k]:.3g} mm "
@@ -333,8 +330,9 @@ def _respace(robot: Robot, poses: list[pin.SE3], segment: int, fractions: list[f
     solved = []
     for u in spaced:
         j = min(int(np.searchsorted(old_fractions, u, side="right")) - 1, len(old_fractions) - 2)
-        if abs(u - old_fractions[j]) <= 1e-12 or abs(u - old_fractions[j + 1]) <= 1e-12:
-            solved.append(old_configurations[j if abs(u - old_fractions[j]) <= 1e-12 else j + 1])
+        there = [m for m in (j, j + 1) if abs(u - old_fractions[m]) <= 1e-12]
+        if there:
+            solved.append(old_configurations[there[0]])
             continue
         solved.append(_pose_between(robot, poses, segment, old_fractions[j], old_fractions[j + 1],
                                     old_configurations[j], old_configurations[j + 1], u))

@@ -207,10 +207,10 @@ def check_output_folder(path, *, force: bool = False, files: Iterable[str] = ())
         raise OutputError(f"output folder {shown(str(folder))}: {exc.strerror or exc}") from None
 
 
-def _own_files(folder: Path, files: set[str]) -> set[str] | None:
-    """``_planner_files`` of ``folder`` that this run writes (all, where ``files`` is empty: not known)."""
-    owned = _planner_files(folder)
-    return owned & files if owned is not None and files else owned
+def _own_files(planner: set[str] | None, files: set[str]) -> set[str] | None:
+    """Of a folder's ``_planner_files`` (``planner``), those this run writes (all, where ``files`` is
+    empty: not known)."""
+    return planner & files if planner is not None and files else planner
 
 
 def _check_folder(folder: Path, force: bool, files: set[str]) -> tuple[Path, bool]:
@@ -225,10 +225,11 @@ def _check_folder(folder: Path, force: bool, files: set[str]) -> tuple[Path, boo
     if not os.access(folder, os.W_OK | os.X_OK):
         raise OutputError(f"output folder {folder} is not writable")
     present = _listing(folder)
-    owned = _own_files(folder, files)  # None: no marker, or a marker that is not the planner's (a folder, say)
+    planner = _planner_files(folder)  # None: no marker, or a marker that is not the planner's (a folder, say)
+    owned = _own_files(planner, files)
     foreign = present - (owned or set()) - ({MARKER} if owned is not None else set())
     if foreign and not force:
-        other = (_planner_files(folder) or set()) & foreign
+        other = (planner or set()) & foreign
         if other:
             names = ", ".join(sorted(other)[:5]) + (", ..." if len(other) > 5 else "")
             raise OutputError(f"output folder {folder} holds outputs the planner wrote that this run does not write "
@@ -440,7 +441,7 @@ def output_folder(path, *, force: bool = False, files: Iterable[str] = ()) -> It
         written = _write_marker(staging, _other_entries(folder, files) if in_place else None)
         if in_place:
             folder.mkdir(exist_ok=True)
-            _publish_in_place(staging, folder, (_own_files(folder, set(files)) or set()) - written)
+            _publish_in_place(staging, folder, (_own_files(_planner_files(folder), set(files)) or set()) - written)
         else:
             _publish_whole(staging, folder)
         published = True

@@ -708,6 +708,10 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         except PlannerError:
             return None
 
+    # Each kinematic optimum compared slowed down, and how (``compared_total``): the robot-limit stage below
+    # starts from the kept one's rather than checking the same trajectory densely again.
+    compared_met: list[tuple[PiecewisePolynomial, tuple[PiecewisePolynomial, RobotLimitOutcome]]] = []
+
     def compared_total(timed_rule) -> float | None:
         """The total time [s] a rule's timed sequence is compared by: the kinematic optimum's, slowed down
         uniformly to meet the torque and tool-speed limits where the task gives them (the sequence that
@@ -718,12 +722,13 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         if not task.robot_limits.given:
             return timed_rule[0].total_time
         assert robot is not None
-        try:
-            slowed, _ = meet_robot_limits(robot, timed_rule[0], torque, task.robot_limits.tool_speed,
-                                          task.robot_limits.tool_angular_speed, timed_rule[0].via_times)
+        try:  # (the waypoint times only word a refusal, which is not kept here)
+            slowed = meet_robot_limits(robot, timed_rule[0], torque, task.robot_limits.tool_speed,
+                                       task.robot_limits.tool_angular_speed, timed_rule[0].via_times)
         except InfeasibleError:
             return None
-        return slowed.total_time
+        compared_met.append((timed_rule[0], slowed))
+        return slowed[0].total_time
 
     branch_times: dict[str, float | None] = {}
     timed, kept = None, task.ik.branch if ik is not None else None
@@ -790,7 +795,8 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         def meet(timed: PiecewisePolynomial) -> tuple[PiecewisePolynomial, RobotLimitOutcome]:
             return meet_robot_limits(robot, timed, torque, given.tool_speed, given.tool_angular_speed,
                                      timed.via_times[at_waypoints])
-        trajectory, met = meet(trajectory)
+        compared = next((done for timed_before, done in compared_met if timed_before is trajectory), None)
+        trajectory, met = compared if compared is not None else meet(trajectory)
         constraints = RobotConstraints(robot, torque, given.tool_speed, given.tool_angular_speed)
 
         def retime(nlp_limits: RobotConstraints, start_durations: np.ndarray, timing: TimingProblem = problem):
