@@ -124,6 +124,16 @@ def assert_plan_holds(result) -> None:
     assert trajectory.total_time >= rest_to_rest_time(np.abs(via[-1] - via[0]), limits).max() * (1 - 1e-9)
 
 
+#: Four tool poses of the UR5 pick-and-place (down, up, across), for robot-limit and straight-line tasks.
+UR5_PICK_POSES = [{"xyz_m": [0.40, -0.25, 0.35], "rpy_deg": [180, 0, 90]},
+                  {"xyz_m": [0.40, -0.25, 0.12], "rpy_deg": [180, 0, 90]},
+                  {"xyz_m": [0.40, -0.25, 0.35], "rpy_deg": [180, 0, 90]},
+                  {"xyz_m": [0.25, 0.35, 0.40], "rpy_deg": [180, 0, 45]}]
+#: UR5 acceleration and jerk limits 10 times the pick-and-place task's: fast joints, so robot limits bind.
+UR5_FAST = {"acceleration_deg_s2": [1500, 1500, 1500, 3000, 3000, 3000],
+            "jerk_deg_s3": [6000, 6000, 6000, 12000, 12000, 12000]}
+
+
 PENDULUM = """<robot name="pendulum">
   <link name="base"/>
   <link name="arm"><inertial><origin xyz="{length} 0 0"/><mass value="{mass}"/>

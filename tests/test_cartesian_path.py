@@ -10,6 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation, Slerp
 
+from conftest import UR5_FAST, UR5_PICK_POSES
 from planner import IKError, TaskError
 from planner.cartesian_path import interpolate_pose, segment_deviation
 from planner.pipeline import plan
@@ -762,14 +763,8 @@ def test_straight_lines_not_followed_after_the_time_limit_stopped_the_timing_nam
     stops at its first feasible start, whose spline overshoots between the poses however many are
     inserted. The refusal blamed the tolerance ("allow a larger path.tolerance_m", sweep 18); it names the
     time limit first now, and keeps the last round's failure."""
-    poses = [{"xyz_m": [0.4, -0.25, 0.35], "rpy_deg": [180, 0, 90]},
-             {"xyz_m": [0.4, -0.25, 0.12], "rpy_deg": [180, 0, 90]},
-             {"xyz_m": [0.4, -0.25, 0.35], "rpy_deg": [180, 0, 90]},
-             {"xyz_m": [0.25, 0.35, 0.4], "rpy_deg": [180, 0, 45]}]
-    task = {"version": 1, "robot": {"name": "ur5", "tool_frame": "tool0"}, "waypoints": {"cartesian": poses},
-            "limits": {"acceleration_deg_s2": [1500, 1500, 1500, 3000, 3000, 3000],
-                       "jerk_deg_s3": [6000, 6000, 6000, 12000, 12000, 12000]},
-            "path": {"mode": "linear", "tolerance_m": 0.001, "tolerance_deg": 0.5},
+    task = {"version": 1, "robot": {"name": "ur5", "tool_frame": "tool0"}, "waypoints": {"cartesian": UR5_PICK_POSES},
+            "limits": UR5_FAST, "path": {"mode": "linear", "tolerance_m": 0.001, "tolerance_deg": 0.5},
             "optimizer": {"time_limit_s": 0.01}}
     with pytest.raises(IKError, match=r"^the time limit of 0\.01 s \(optimizer\.time_limit_s\) stopped (\d+) of \1 "
                                       r"straight-line rounds' timings before they converged, .*: raise or remove "

@@ -13,7 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from conftest import PENDULUM, pendulum, puma_dh_frames
+from conftest import PENDULUM, UR5_FAST, UR5_PICK_POSES, pendulum, puma_dh_frames
 from planner import InfeasibleError, RobotError, TaskError, paper, plan
 from planner.dynamics import (
     check_times,
@@ -405,10 +405,7 @@ def test_a_retiming_the_dense_check_slows_past_h_max_is_timed_again_with_tighter
     of the tool speed (Pinocchio's frame velocity at 20,001 points)."""
     robot = Robot.from_example_robot_data("ur5", "tool0")
     data = {"version": 1, "robot": {"name": "ur5", "tool_frame": "tool0"},
-            "waypoints": {"cartesian": [{"xyz_m": [0.40, -0.25, 0.35], "rpy_deg": [180, 0, 90]},
-                                        {"xyz_m": [0.40, -0.25, 0.12], "rpy_deg": [180, 0, 90]},
-                                        {"xyz_m": [0.40, -0.25, 0.35], "rpy_deg": [180, 0, 90]},
-                                        {"xyz_m": [0.25, 0.35, 0.40], "rpy_deg": [180, 0, 45]}]},
+            "waypoints": {"cartesian": UR5_PICK_POSES},
             "limits": {"acceleration_deg_s2": [150, 150, 150, 300, 300, 300],
                        "jerk_deg_s3": [600, 600, 600, 1200, 1200, 1200], "tool_speed_m_s": 0.25},
             "optimizer": {"bounds_s": [0.2, 2.5]}}
@@ -438,9 +435,7 @@ def test_a_tightened_retiming_that_ends_on_h_max_again_is_timed_with_a_tighter_h
            [39.761691311, -73.7789687765, 75.9618146145, 87.8171541626, 90.0000000003, 84.761691311]]
     torque = np.array([150, 55, 22, 28, 28, 28])
     result = plan({"version": 1, "robot": {"name": "ur5", "tool_frame": "tool0"}, "waypoints": {"joints_deg": via},
-                   "limits": {"acceleration_deg_s2": [1500, 1500, 1500, 3000, 3000, 3000],
-                              "jerk_deg_s3": [6000, 6000, 6000, 12000, 12000, 12000], "torque_nm": torque.tolist(),
-                              "tool_speed_m_s": 0.25},
+                   "limits": {**UR5_FAST, "torque_nm": torque.tolist(), "tool_speed_m_s": 0.25},
                    "trajectory": {"family": "cubic"}, "optimizer": {"bounds_s": [0.001, h_max]}})
     trajectory, robot = result.trajectory, result.robot
     assert trajectory.durations.max() <= h_max * (1 + 1e-9) and result.robot_limits.uniform_total_s is not None
@@ -545,10 +540,6 @@ def test_the_outputs_carry_the_torques(puma, tmp_path):
         assert rr.new_entity_path(["profiles", "torque", name]) in entities("out")
         assert rr.new_entity_path(["profiles", "torque", "limits", name, "upper"]) in entities("out")
     assert not any("/torque/" in e for e in entities("plain"))
-
-
-UR5_FAST = {"acceleration_deg_s2": [1500, 1500, 1500, 3000, 3000, 3000],
-            "jerk_deg_s3": [6000, 6000, 6000, 12000, 12000, 12000]}
 
 
 def test_a_retiming_that_leaves_a_joint_range_is_not_kept():
@@ -720,13 +711,7 @@ def test_the_ik_sequences_are_compared_under_the_tool_speed_limit():
     kept (9.67 s, sweep 18) while the optimal rule's plans in 6.24 s; the rules' sequences are now compared
     slowed down to meet the limit, and that time is the uniform slow-down the plan reports."""
     task = {"version": 1, "robot": {"name": "ur5", "tool_frame": "tool0"},
-            "waypoints": {"cartesian": [{"xyz_m": [0.4, -0.25, 0.35], "rpy_deg": [180, 0, 90]},
-                                        {"xyz_m": [0.4, -0.25, 0.12], "rpy_deg": [180, 0, 90]},
-                                        {"xyz_m": [0.4, -0.25, 0.35], "rpy_deg": [180, 0, 90]},
-                                        {"xyz_m": [0.25, 0.35, 0.4], "rpy_deg": [180, 0, 45]}]},
-            "limits": {"acceleration_deg_s2": [1500, 1500, 1500, 3000, 3000, 3000],
-                       "jerk_deg_s3": [6000, 6000, 6000, 12000, 12000, 12000]},
-            "trajectory": {"family": "cubic"}}
+            "waypoints": {"cartesian": UR5_PICK_POSES}, "limits": UR5_FAST, "trajectory": {"family": "cubic"}}
     kinematic = plan(task)
     assert kinematic.branch_kept == "continuous"
     assert kinematic.branch_times["continuous"] < kinematic.branch_times["optimal"]
