@@ -152,6 +152,7 @@ class Robot:
                                  f"(a robot description, its meshes apart, is well under 1 MiB)", path=path)
         _check_utf8(path)
         _check_well_formed(path)
+        _check_tree(path)
         with stderr_captured() as parser_log:
             failure: Exception | None
             try:
@@ -363,6 +364,49 @@ def _check_well_formed(path: Path) -> None:
                              f"joints, masses and meshes read it as XML: {remedy}", path=path) from None
     except OSError as exc:
         raise RobotFileError(f"cannot load URDF {path}: cannot read it ({exc.strerror or exc})", path=path) from None
+
+
+def _check_tree(path: Path) -> None:
+    """Refuse a URDF whose joints do not make its links a tree: a link that is the child of two joints,
+    or links that are each other's ancestors (a loop). Pinocchio's parser drops the links of a loop
+    without a word (the tool frame then seems unknown) and reports a second parent joint as some
+    other link missing. Joints that lack a parent or child link are left to its own message.
+
+    Raises:
+        RobotFileError: naming the link and its two parent joints, or the loop's joints in order.
+    """
+    parent_joint: dict[str, tuple[str, str]] = {}  # child link -> (joint, parent link)
+    for joint in urdf_elements(path, "joint"):
+        parent, child = (joint.find(end) for end in ("parent", "child"))
+        if parent is None or child is None or parent.get("link") is None or child.get("link") is None:
+            continue
+        name, child_link = joint.get("name", ""), child.get("link", "")
+        if child_link in parent_joint:
+            raise RobotFileError(f"cannot load URDF {path}: link {shown(child_link, 60)} is the child of two joints, "
+                                 f"{shown(parent_joint[child_link][0], 60)} and {shown(name, 60)}; in a URDF every "
+                                 f"link but the root has exactly one parent joint (a closed chain cannot be "
+                                 f"described)", path=path)
+        parent_joint[child_link] = (name, parent.get("link", ""))
+    rooted: set[str] = set()  # links whose ancestors end at a root
+    for start in parent_joint:
+        seen: list[str] = []
+        link = start
+        while link in parent_joint and link not in rooted and link not in seen:
+            seen.append(link)
+            link = parent_joint[link][1]
+        if link in seen:  # the walk towards the root came back: seen[index:] is the loop
+            loop = seen[seen.index(link):][::-1]
+            if len(loop) == 1:
+                raise RobotFileError(f"cannot load URDF {path}: joint {shown(parent_joint[link][0], 60)} makes link "
+                                     f"{shown(link, 60)} its own parent; a URDF's links form a tree from one root "
+                                     f"link", path=path)
+            shown_loop = loop[:6]
+            more = f", ... ({len(loop)} in all)" if len(loop) > len(shown_loop) else ""
+            joints = ", ".join(shown(parent_joint[child][0], 60) for child in shown_loop)
+            raise RobotFileError(f"cannot load URDF {path}: joints {joints}{more} make links "
+                                 f"{', '.join(shown(child, 60) for child in shown_loop)}{more} a loop (each the "
+                                 f"parent of the next); a URDF's links form a tree from one root link", path=path)
+        rooted.update(seen)
 
 
 def _check_utf8(path: Path) -> None:

@@ -198,6 +198,44 @@ def test_urdf_parser_line_is_in_the_message(tmp_path):
         Robot.from_urdf(urdf)
 
 
+def chain_urdf(joints: list[tuple[str, str, str]], links=("base", "l1", "l2", "l3", "tool")) -> str:
+    """A URDF of massless ``links`` joined by revolute joints (name, parent link, child link)."""
+    body = "".join(f'<link name="{link}"/>' for link in links)
+    body += "".join(f'<joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{child}"/>'
+                    f'<axis xyz="0 0 1"/><limit lower="-1" upper="1" velocity="1" effort="1"/></joint>'
+                    for name, parent, child in joints)
+    return f'<robot name="x">{body}</robot>'
+
+
+CHAIN = [("j1", "base", "l1"), ("j2", "l1", "l2"), ("j3", "l2", "l3"), ("j4", "l3", "tool")]
+
+
+@pytest.mark.parametrize(("joints", "message"), [
+    # l1 .. tool in a loop through j1 (Pinocchio dropped them all: "no frame 'tool'")
+    ([("j1", "tool", "l1"), *CHAIN[1:]], r"joints 'j2', 'j3', 'j4', 'j1' make links 'l2', 'l3', 'tool', 'l1' a "
+                                         r"loop \(each the parent of the next\)"),
+    ([*CHAIN[:2], ("j3", "l3", "l3"), CHAIN[3]], r"joint 'j3' makes link 'l3' its own parent"),
+    # a second parent joint of l3 (Pinocchio: "Model does not have any body named l2")
+    ([*CHAIN, ("extra", "l1", "l3")], r"link 'l3' is the child of two joints, 'j3' and 'extra'"),
+])
+def test_urdf_links_that_are_no_tree_are_named(tmp_path, joints, message):
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text(chain_urdf(joints))
+    with pytest.raises(RobotFileError, match=rf"^cannot load URDF {urdf}: {message}; "):
+        Robot.from_urdf(urdf, "tool")
+
+
+def test_a_long_urdf_loop_is_named_by_its_first_links(tmp_path):
+    links = [f"l{i}" for i in range(40)]
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text(chain_urdf([(f"j{i}", links[i - 1], links[i]) for i in range(40)], links))  # j0: l39 -> l0
+    with pytest.raises(RobotFileError, match=r"joints 'j1', 'j2', 'j3', 'j4', 'j5', 'j6', \.\.\. \(40 in all\) "
+                                             r"make links 'l1', .*, 'l6', \.\.\. \(40 in all\) a loop"):
+        Robot.from_urdf(urdf, "l5")
+    urdf.write_text(chain_urdf([(f"j{i}", links[i - 1], links[i]) for i in range(1, 40)], links))  # the tree
+    assert Robot.from_urdf(urdf, "l3").dof == 3
+
+
 @pytest.mark.parametrize("path", ["/dev/zero", "/tmp", "missing.urdf"])
 def test_urdf_must_be_a_regular_file(path):
     with pytest.raises(RobotError, match="not an existing regular file"):
