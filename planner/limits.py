@@ -61,6 +61,11 @@ LIMIT_DEG_RANGE = (1e-12, 1e15)
 #: outside their range, count as holding (rounding in the exact checks and in unit conversions,
 #: such as a via-point written as -160 deg against a URDF bound of -2.792526803 rad).
 FEASIBILITY_TOLERANCE = 1e-9
+#: How near its range bound [rad] a via-point rests on it (``JointLimits.bound_sides``): the planner then
+#: stops the joint there. A velocity left free must turn the joint within so small a gap (|v| <= sqrt(2 A
+#: gap) under an acceleration limit A), which the cut rounds did not settle: hermite7's via-points 1.7e-9
+#: .. 3.5e-8 rad inside their bounds were refused, those on them planned.
+RESTING_DISTANCE = 1e-7
 #: Most joints a set of limits is made for (``JointLimits.create``): a humanoid has tens; the cap keeps a
 #: mistaken count from allocating without end.
 MAX_JOINTS = 10_000
@@ -215,14 +220,14 @@ class JointLimits(ReadOnlyArrays):
 
     def bound_sides(self, positions: np.ndarray) -> np.ndarray:
         """(..., J) +1 / -1 where a position [rad] is on its joint's upper / lower bound (within
-        ``FEASIBILITY_TOLERANCE``), else 0.
+        ``RESTING_DISTANCE``), else 0.
 
         Raises:
             InputError: positions that are not numbers, or not J to a row.
         """
         positions = self._positions(positions)
-        sides = np.where(np.abs(positions - self.upper) <= FEASIBILITY_TOLERANCE, 1, 0)
-        return np.where(np.abs(positions - self.lower) <= FEASIBILITY_TOLERANCE, -1, sides)
+        sides = np.where(np.abs(positions - self.upper) <= RESTING_DISTANCE, 1, 0)
+        return np.where(np.abs(positions - self.lower) <= RESTING_DISTANCE, -1, sides)
 
     def covering(self, positions: np.ndarray) -> "JointLimits":
         """These limits with each position range widened just enough to hold ``positions`` (..., J) [rad].

@@ -554,17 +554,30 @@ def _outside_bounds(problem: TimingProblem, result: OptimizationResult,
                            quantity=quantity, value=float(result.ratios[d, j]) * limit, limit=limit)
 
 
+#: How near its range bound [rad] an interior via-point makes the hint of a range left name it (0.05 deg):
+#: the joint must nearly stop there, which families that fix via-point velocities from the durations
+#: seldom allow at many via-points at once.
+NEAR_BOUND_HINT = float(np.deg2rad(0.05))
+
+
 def _on_bound_hint(problem: TimingProblem, violations: list[Violation]) -> str:
-    """Why a range may be left: via-points on a range bound, where the joint must stop, which the
-    family's continuity conditions fix from the durations (and cannot make 0 at many via-points at
-    once), and the family whose via-point states are free. Empty unless a position violation and
-    such a via-point exist, or for a family with free states."""
-    sides = problem.limits.bound_sides(problem.given_via_points)[1:-1]
-    if problem.family.free_states or not any(v.quantity == "position" for v in violations) or not sides.any():
+    """Why a range may be left: via-points on or near a range bound (within ``NEAR_BOUND_HINT``),
+    where the joint must stop or nearly so, which the family's continuity conditions fix from the
+    durations (and cannot make 0 at many via-points at once), and the family whose via-point states
+    are free. Empty unless a position violation and such a via-point exist, or for a family with
+    free states."""
+    limits, via = problem.limits, problem.given_via_points[1:-1]
+    gaps = np.minimum(np.abs(via - limits.lower), np.abs(via - limits.upper))
+    near = (gaps <= NEAR_BOUND_HINT) & np.isfinite(gaps)
+    if problem.family.free_states or not any(v.quantity == "position" for v in violations) or not near.any():
         return ""  # free via-point states can stop there
-    k, j = np.argwhere(sides)[0]
-    return (f"; {np.count_nonzero(sides)} via-point values sit on a range bound (first: via-point {k + 1}, joint "
-            f"{problem.limits.names[j]}), where the joint must stop, which the {problem.family.name} spline's "
+    k, j = np.argwhere(near)[0]
+    on = limits.bound_sides(via)
+    where, stop = ("on a range bound", "stop") if on[near].all() else (
+        f"on or within {in_degrees(NEAR_BOUND_HINT, 0)} of a range bound", "stop or nearly")
+    gap = "on it" if on[k, j] else f"{in_degrees(float(gaps[k, j]), 0)} inside it"
+    return (f"; {np.count_nonzero(near)} via-point values sit {where} (first: via-point {k + 1}, joint "
+            f"{limits.names[j]}, {gap}), where the joint must {stop}, which the {problem.family.name} spline's "
             f"continuity conditions seldom allow at more than a few: move them inside their ranges or set "
             f"trajectory.family: hermite7, whose via-point velocities the optimizer chooses (it can stop there)")
 

@@ -303,7 +303,8 @@ def test_a_range_left_next_to_via_points_on_its_bounds_says_why():
                        "position_deg": np.rad2deg(np.vstack((limits.lower, limits.upper))).T.tolist()}}
     with pytest.raises(InfeasibleError, match=rf"position .* is (below|above) its (lower|upper) limit .*; "
                                               rf"{len(on_bound)} via-point values sit on a range bound \(first: "
-                                              rf"via-point {on_bound[0][0] + 1}, joint joint{on_bound[0][1] + 1}\)"
+                                              rf"via-point {on_bound[0][0] + 1}, joint joint{on_bound[0][1] + 1}, "
+                                              rf"on it\)"
                                               rf".* or set trajectory.family: hermite7"):
         plan(parse_task(task))
 
@@ -327,6 +328,35 @@ def test_the_family_the_on_bound_hint_offers_plans_what_hybrid_cannot():
     result = plan(parse_task({**task, "trajectory": {"family": "hermite7"}}))
     assert result.summary()["feasible"] is True
     assert_plan_holds(result)
+
+
+def near_bound_task(margin_deg: float, family: str) -> dict:
+    """Three joints whose interior via-points sit ``margin_deg`` inside a range bound each."""
+    return {"version": 1, "name": "near bounds",
+            "waypoints": {"joints_deg": [[0, 0, 0], [30, -20, 10], [10, 25, -5], [40, 0, 20]]},
+            "limits": {"velocity_deg_s": [60] * 3, "acceleration_deg_s2": [120] * 3, "jerk_deg_s3": [600] * 3,
+                       "position_deg": [[-margin_deg, 40 + margin_deg], [-20 - margin_deg, 25 + margin_deg],
+                                        [-5 - margin_deg, 20 + margin_deg]]},
+            "trajectory": {"family": family}}
+
+
+@pytest.mark.parametrize("margin_deg", [1e-7, 2e-6, 5e-6])
+def test_hermite7_stops_a_joint_just_inside_its_bound_as_on_it(margin_deg):
+    """Via-points 1.7e-9 .. 8.7e-8 rad inside their bounds rest there like those on them (their
+    velocity left free, the rounds did not settle and the task was refused): the plan is the one
+    with the via-points on the bounds, which lies within these wider ranges."""
+    on = plan(parse_task(near_bound_task(0.0, "hermite7")))
+    inside = plan(parse_task(near_bound_task(margin_deg, "hermite7")))
+    assert inside.summary()["feasible"] is True
+    assert_plan_holds(inside)
+    assert inside.trajectory.total_time == pytest.approx(on.trajectory.total_time, rel=1e-6)
+
+
+def test_the_on_bound_hint_names_via_points_near_a_bound_and_how_far_inside():
+    with pytest.raises(InfeasibleError, match=r"; 3 via-point values sit on or within 0.05 deg of a range bound "
+                                              r"\(first: via-point 1, joint joint2, 1e-05 deg inside it\), where the "
+                                              r"joint must stop or nearly, .* or set trajectory.family: hermite7"):
+        plan(parse_task(near_bound_task(1e-5, "hybrid")))
 
 
 def test_an_infeasible_optimum_names_its_worst_violation_in_text_and_attributes(monkeypatch):

@@ -173,7 +173,7 @@ class SplineFormulation:
 
     def resting_sides(self) -> np.ndarray:
         """(n, J) +1 / -1 where an interior via-point sits on its joint's upper / lower position bound
-        (``JointLimits.bound_sides``: within the exact check's tolerance), else 0.
+        (``JointLimits.bound_sides``: within ``RESTING_DISTANCE``), else 0.
 
         There the joint must stop (a nonzero velocity leaves the range on one side), so its knot
         velocity is fixed at 0: exact, and it keeps the position certificates of the adjacent

@@ -47,7 +47,8 @@ By Lukacs' theorem such a polynomial is a sum of squares weighted by s and
   non-negative on [0, 1] iff at both ends: at s = 0, p = p0 + s^2 (p2 + p3 s):
   p0, p2, p2 + p3 >= 0; at s = 1, p = p(1) + (1-s)^2 (q2 + q3 (1-s)) with
   q2 = p2 + 3 p3, q3 = -p3: p(1), p2 + 3 p3, p2 + 2 p3 >= 0. Linear rows, no
-  extra variable, exact.
+  extra variable, exact on the bound; for a via-point just inside it (within
+  ``RESTING_DISTANCE``, where it rests too) p0 > 0 and the rows are sufficient.
 * f of higher degree (the quintic's velocity and position): a cut, the
   bound imposed at the extreme s_c the exact check found, p(s_c) >= 0 (no
   extra variable). Cuts only ever relax the true constraint, so they never
