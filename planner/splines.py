@@ -271,6 +271,11 @@ class SplineFamily:
         acceleration, jerk), for a family whose states are free (``free_states``)."""
         raise InputError(f"the {self.name} family fixes its via-point states from the durations")
 
+    def rule_states(self, via_points: np.ndarray, durations: np.ndarray) -> np.ndarray:
+        """(B, n, J, 3) the via-point states (velocity, acceleration, jerk) a family whose states are free
+        (``free_states``) takes from durations (B, S) alone."""
+        raise InputError(f"the {self.name} family fixes its via-point states from the durations")
+
     def check(self, via_points, durations) -> tuple[np.ndarray, np.ndarray]:
         """Validate via-points (n, J), n >= 2, and durations (S,) or (B, S) of the right count."""
         via = finite_array("via_points", via_points, 2)
@@ -572,7 +577,11 @@ class Hermite7Family(SplineFamily):
 
     def batch_coefficients(self, via_points: np.ndarray, durations: np.ndarray) -> np.ndarray:
         """The segments between the fixed-rule states (``parabola_states``)."""
-        return self.coefficients_from_states(via_points, durations, parabola_states(via_points, durations))
+        return self.coefficients_from_states(via_points, durations, self.rule_states(via_points, durations))
+
+    def rule_states(self, via_points: np.ndarray, durations: np.ndarray) -> np.ndarray:
+        """(B, n, J, 3) the via-point states of the fixed rule (``parabola_states``) for durations (B, S)."""
+        return parabola_states(via_points, durations)
 
     def coefficients_from_states(self, via_points: np.ndarray, durations: np.ndarray,
                                  states: np.ndarray) -> np.ndarray:

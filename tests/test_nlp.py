@@ -425,6 +425,32 @@ def test_hermite7_paper_case_reaches_the_independent_optimum(paper_via, paper_li
     assert np.abs(result.knot_states - rule).max() > 1e-2  # optimized, not the rule's
 
 
+@pytest.mark.parametrize("loose", [1e5, 1e9])
+def test_hermite7_settles_the_states_of_a_joint_no_limit_binds(loose):
+    """Joint 1's limits 1e5 (1e9) times the others': no limit ties its via-point states, which IPOPT
+    left at thousands of deg/s over 36-61 s segments, and the via-points were lost to rounding (the
+    plan refused). They are now the fixed rule's, where that meets the joint's limits with less jerk
+    energy: the via-points are met, every limit holds exactly, and the total time is that of the
+    slow joints alone (140.9078 s)."""
+    from planner.splines import parabola_states
+
+    via = np.deg2rad([[0, 0, 0], [30, -20, 10], [10, 25, -5], [40, 0, 20]])
+    limits = JointLimits.create(3, velocity=np.deg2rad([loose, 1, 1]), acceleration=np.deg2rad([loose, 1, 1]),
+                                jerk=np.deg2rad([loose, 1, 1]))
+    problem = TimingProblem(via, "hermite7", limits)
+    result = optimize(problem, "nlp")
+    assert result.feasible
+    rule = parabola_states(via, result.durations[None])[0]
+    np.testing.assert_allclose(result.knot_states[:, 0], rule[:, 0], rtol=1e-12, atol=1e-15)
+    trajectory = problem.trajectory(result.durations, result.knot_states)
+    assert kinematic_figures(trajectory).violations(limits) == []
+    np.testing.assert_allclose(trajectory.evaluate(trajectory.knot_times, 0), via, rtol=0, atol=1e-12)
+    slow = TimingProblem(via[:, 1:], "hermite7", JointLimits.create(2, velocity=np.deg2rad([1, 1]),
+                                                                     acceleration=np.deg2rad([1, 1]),
+                                                                     jerk=np.deg2rad([1, 1])))
+    assert relative_gap(result.total_time, optimize(slow, "nlp").total_time) < 1e-6
+
+
 @given(st.floats(0.1, 3.0), st.floats(0.1, 5.0), st.floats(0.1, 5.0), st.floats(0.1, 5.0),
        st.sets(st.sampled_from((0, 1, 2)), min_size=1))
 @settings(max_examples=12, deadline=None)

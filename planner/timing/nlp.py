@@ -83,8 +83,8 @@ import numpy as np
 
 from ..concurrency import map_forked, map_forked_until
 from ..interrupts import check as check_interrupted
-from ..kinematics import max_abs, segment_extrema
-from ..limits import FEASIBILITY_TOLERANCE
+from ..kinematics import batch_scale_factors, jerk_energy, max_abs, position_range, segment_extrema
+from ..limits import FEASIBILITY_TOLERANCE, ratio_exceeded
 from ..native_output import stderr_captured
 from .formulations import FORMULATIONS, Scales, SegmentBlock
 from .problem import TimingProblem
@@ -358,6 +358,8 @@ class TimingNLP:
             certificates, changed = self._certify(certificates, coefficients, h)
             if not changed and settled:
                 break
+        if states is not None and self.robot is None:
+            states = _settled_states(problem, h, states)
         return NLPOutcome(h, iterations, rounds, status, len(certificates), states)
 
     # ------------------------------------------------------------------ robot-aware limits
@@ -512,6 +514,33 @@ class TimingNLP:
 #: The OpenBLAS that CasADi bundles, which MUMPS (IPOPT's linear solver) calls (a glob in CasADi's folder:
 #: the wheel holds it under several names, of which the one loaded is found).
 CASADI_BLAS = "libcasadi-tp-openblas*"
+
+
+def _settled_states(problem: TimingProblem, h: np.ndarray, states: np.ndarray) -> np.ndarray:
+    """The NLP's via-point states (n, J, 3) for durations ``h`` (S,) [s], each joint's replaced by the
+    family's fixed rule (``rule_states``) where, at these durations, the rule meets that joint's limits
+    and range and has the lower jerk energy, or the NLP's break them.
+
+    Nothing in the objective ties the states of a joint whose limits do not bind: IPOPT left those of a
+    loosely limited joint beside slow ones anywhere within its bounds (1e5 deg/s limits beside 1 deg/s
+    ones: velocities of 6545 deg/s at a via-point of a 140 s plan), and 7th-order segments that large
+    over 60 s lost their via-points to rounding (3e-7 deg). Joints are independent given the durations
+    (no robot rows couple them), so each is settled alone; the total time is unchanged, and a
+    time-jerk objective can only fall."""
+    family, limits = problem.family, problem.limits
+    durations = np.repeat(h[None], 2, axis=0)
+    candidates = np.stack((states, family.rule_states(problem.via_points, h[None])[0]))
+    coefficients = problem.coefficients(durations, candidates)
+    ratios, _ = batch_scale_factors(coefficients, durations, limits)
+    meets = np.logical_not(ratio_exceeded(ratios).any(axis=1))  # (2, J)
+    if limits.has_position_range:
+        low, high = position_range(coefficients, durations)
+        meets &= (low >= limits.lower - FEASIBILITY_TOLERANCE) & (high <= limits.upper + FEASIBILITY_TOLERANCE)
+    energy = jerk_energy(coefficients, durations)
+    ruled = meets[1] & (~meets[0] | (energy[1] < energy[0]))
+    settled = states.copy()
+    settled[:, ruled] = candidates[1][:, ruled]
+    return settled
 
 
 @functools.cache
