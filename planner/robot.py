@@ -335,14 +335,19 @@ def _mesh_file(filename: str, urdf_path: Path, package_dirs) -> Path | None:
 
 def urdf_elements(urdf_path: Path, tag: str) -> list:
     """The ``<tag>`` elements directly under the URDF's ``<robot>`` (ElementTree elements); [] where
-    the file cannot be read (a URDF given by path is refused before unless well-formed:
-    ``_check_well_formed``)."""
+    the file cannot be read (``_urdf_root``)."""
+    return _urdf_root(urdf_path).findall(tag)
+
+
+def _urdf_root(urdf_path: Path):
+    """The URDF's root element (ElementTree); an empty ``<robot>`` where the file cannot be read (a URDF
+    given by path is refused before unless well-formed: ``_check_well_formed``)."""
     import xml.etree.ElementTree as ElementTree
 
     try:
-        return ElementTree.parse(urdf_path).getroot().findall(tag)
+        return ElementTree.parse(urdf_path).getroot()
     except (OSError, ElementTree.ParseError):
-        return []
+        return ElementTree.Element("robot")
 
 
 def _check_well_formed(path: Path) -> None:
@@ -466,6 +471,22 @@ def _mimic_joints(urdf_path: Path) -> list[str]:
     return [joint.get("name", "") for joint in urdf_elements(urdf_path, "joint") if joint.find("mimic") is not None]
 
 
+def _link_meshes(root, urdf_path: Path, package_dirs):
+    """Each ``<mesh>`` of a link's ``<visual>`` or ``<collision>`` under the URDF's ``root`` element, as
+    (link, its visual or collision element, the mesh element, the file's status (``os.stat``) and path),
+    status and path None where the file is not found (``_mesh_file``), is a dangling link, or its name
+    cannot be a path (a NUL in it)."""
+    for link in root.findall("link"):
+        for element in [e for kind in ("visual", "collision") for e in link.findall(kind)]:
+            for mesh in element.iter("mesh"):
+                try:
+                    path = _mesh_file(mesh.get("filename") or "", urdf_path, package_dirs)
+                    status = None if path is None else os.stat(path)
+                except (OSError, ValueError):
+                    path, status = None, None
+                yield link, element, mesh, status, path
+
+
 def check_meshes(urdf_path: Path, package_dirs) -> tuple[str, ...]:
     """Every mesh the URDF names that exists is a regular file of at most ``MAX_MESH_BYTES``, so that
     drawing the robot cannot read a device (``/dev/zero``) or a pipe without end. Returns the
@@ -475,22 +496,16 @@ def check_meshes(urdf_path: Path, package_dirs) -> tuple[str, ...]:
         RobotError: naming the link, the mesh and what it is.
     """
     missing: list[str] = []
-    for link in urdf_elements(urdf_path, "link"):
-        for mesh in link.iter("mesh"):
-            named = mesh.get("filename") or ""
-            try:
-                path = _mesh_file(named, urdf_path, package_dirs)
-                status = os.stat(path) if path is not None and os.path.lexists(path) else None
-            except (OSError, ValueError):  # a dangling link, a NUL in the name: the viewer skips it too
-                continue
-            if status is None:
-                missing.append(named)
-                continue
-            where = f"URDF {urdf_path}: link {shown(link.get('name'), 60)} mesh {shown(named, 120)}"
-            if not stat.S_ISREG(status.st_mode):
-                raise RobotFileError(f"{where} is not a regular file (a folder, device or pipe)", path=path)
-            if status.st_size > MAX_MESH_BYTES:
-                raise RobotFileError(f"{where} is larger than {MAX_MESH_BYTES >> 20} MiB", path=path)
+    for link, _, mesh, status, path in _link_meshes(_urdf_root(urdf_path), urdf_path, package_dirs):
+        named = mesh.get("filename") or ""
+        if status is None:
+            missing.append(named)
+            continue
+        where = f"URDF {urdf_path}: link {shown(link.get('name'), 60)} mesh {shown(named, 120)}"
+        if not stat.S_ISREG(status.st_mode):
+            raise RobotFileError(f"{where} is not a regular file (a folder, device or pipe)", path=path)
+        if status.st_size > MAX_MESH_BYTES:
+            raise RobotFileError(f"{where} is larger than {MAX_MESH_BYTES >> 20} MiB", path=path)
     return tuple(dict.fromkeys(missing))
 
 
@@ -502,21 +517,13 @@ def drawable_urdf(urdf_path: Path, package_dirs) -> bytes:
     folder (a pipe or ``/dev/zero`` reached so hung the recording or filled the memory)."""
     import xml.etree.ElementTree as ElementTree
 
-    tree = ElementTree.parse(urdf_path)
-    for link in tree.getroot().findall("link"):
-        for element in [e for kind in ("visual", "collision") for e in link.findall(kind)]:
-            for mesh in element.iter("mesh"):
-                try:
-                    path = _mesh_file(mesh.get("filename") or "", urdf_path, package_dirs)
-                    found = path is not None and os.path.isfile(path)
-                except (OSError, ValueError):
-                    found = False
-                if not found:
-                    link.remove(element)
-                    break
-                assert path is not None
-                mesh.set("filename", str(Path(path).resolve()))
-    return ElementTree.tostring(tree.getroot(), encoding="utf-8")
+    root = _urdf_root(urdf_path)
+    for link, element, mesh, status, path in list(_link_meshes(root, urdf_path, package_dirs)):
+        if status is not None and stat.S_ISREG(status.st_mode):
+            mesh.set("filename", str(Path(path).resolve()))
+        elif element in link:  # not yet left out for another of its meshes
+            link.remove(element)
+    return ElementTree.tostring(root, encoding="utf-8")
 
 
 def _first_line(text: str) -> str:

@@ -328,10 +328,12 @@ MESH_ARM = """<robot name="meshy">
 
 @pytest.mark.parametrize("mesh, what", [("/dev/zero", "not a regular file"), ("file:///dev/zero", "not a regular file"),
                                         ("meshes", "not a regular file"), ("link.stl", None),
-                                        ("missing.stl", None), ("package://nowhere/arm.stl", None)])
+                                        ("missing.stl", None), ("package://nowhere/arm.stl", None),
+                                        ("dangling.stl", None)])
 def test_urdf_meshes_must_be_regular_files(tmp_path, mesh, what):
     (tmp_path / "meshes").mkdir()
     (tmp_path / "link.stl").write_bytes(b"solid x\nendsolid x\n")
+    (tmp_path / "dangling.stl").symlink_to(tmp_path / "gone.stl")  # a link to nothing: not found
     urdf = tmp_path / "meshy.urdf"
     urdf.write_text(MESH_ARM.format(mesh=mesh))
     if what is None:  # a regular file, or one the viewer will not find either: named as missing
