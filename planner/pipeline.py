@@ -595,9 +595,10 @@ def _resting_remedy(robot: Robot, task: Task, poses: list, limits: JointLimits, 
                 f"within the limits either: raise limits.torque_nm or move the waypoint")
     hinted = task.cartesian_waypoints is not None and task.cartesian_waypoints[waypoint].hint is not None
     optimal = ", or choose ik.branch: optimal" if task.ik.branch == "continuous" and not hinted else ""
+    one = len(resting) == 1
     return (f"{len(resting)} of the {count} IK solutions of waypoint {waypoint}'s pose within the joint ranges "
-            f"{'holds' if len(resting) == 1 else 'hold'} still within the limits: give "
-            f"{'it' if len(resting) == 1 else 'one'} as waypoints.cartesian[{waypoint}].hint_deg, such as "
+            f"{'holds' if one else 'hold'} still within the limits: give {'it' if one else 'one'} as "
+            f"waypoints.cartesian[{waypoint}].hint_deg{':' if one else ', such as'} "
             f"{np.round(np.rad2deg(resting[0]), 4).tolist()}{optimal}")
 
 

@@ -705,6 +705,23 @@ def test_a_resting_end_beyond_the_torque_limit_names_another_ik_solution_that_ho
         plan(weak)
 
 
+def test_a_resting_end_that_one_ik_solution_holds_still_offers_that_one():
+    """The shoulder pan's range [-100, 200] deg leaves 4 of the last pose's 8 solutions, and one of them
+    holds still under a 20 N m shoulder (8.66 N m; its mirror, at -110.8 deg, is out of range): the hint
+    names it alone, in the singular."""
+    poses = [UR5_PICK_POSES[0], {"xyz_m": [0.25, 0.35, 0.40], "rpy_deg": [180, 0, 45],
+                                 "hint_deg": [39.8, -1.4, -76, 167.4, 90, 84.8]}]  # needs 46.7 N m
+    task = {"version": 1, "robot": {"name": "ur5", "tool_frame": "tool0"}, "waypoints": {"cartesian": poses},
+            "limits": {"acceleration_deg_s2": [150, 150, 150, 300, 300, 300],
+                       "jerk_deg_s3": [600, 600, 600, 1200, 1200, 1200], "torque_nm": [150, 20, 150, 28, 28, 28],
+                       "position_deg": [[-100, 200], [-360, 360], [-180, 180], [-360, 360], [-360, 360],
+                                        [-360, 360]]}}
+    with pytest.raises(InfeasibleError, match=r"at the last waypoint, .*; 1 of the 4 IK solutions of waypoint 1's "
+                                              r"pose within the joint ranges holds still within the limits: give it "
+                                              r"as waypoints\.cartesian\[1\]\.hint_deg: \[39\.76\d*, -99\.4"):
+        plan(task)
+
+
 def test_the_ik_sequences_are_compared_under_the_tool_speed_limit():
     """Four UR5 pick-and-place poses, fast joints, tool speed 0.25 m/s: the continuous rule's sequence is
     faster kinematically but swings the tool wide (348 mm off the chord), so the limit slows it more. It was

@@ -14,6 +14,7 @@ from planner.ik import (
     pose_from_position_quaternion,
     pose_solutions,
     range_margin_deg,
+    resting_solutions,
     solve_pose,
     solve_waypoints,
     turn_variants,
@@ -224,6 +225,23 @@ def test_branch_choice_is_the_brute_force_optimum(puma, count, sizes, seed):
         return sum(rest_to_rest_time(np.abs(b - a), limits).max() for a, b in zip(configurations, configurations[1:]))
     best = min(cost(s) for s in itertools.product(*(range(len(c)) for c in candidates)))
     assert cost(chosen) <= best + 1e-12
+
+
+def test_resting_solutions_are_each_turned_to_their_widest_margin(puma):
+    """The solutions offered as a resting hint sit each joint at its turn farthest from its bounds: with
+    joint 6's range moved to [0, 532] deg, a wrist at 10 deg is offered at 370 deg (margin 162 deg,
+    not 10)."""
+    q = np.deg2rad([10, -20, 30, 40, 50, 10])
+    limits = puma.limits.with_overrides(lower=np.r_[puma.limits.lower[:5], 0.0],
+                                        upper=np.r_[puma.limits.upper[:5], np.deg2rad(532)])
+    resting, count = resting_solutions(puma, puma.forward_kinematics(q), limits, lambda _: True)
+    assert count >= 3 and len(resting) == count
+    for solution in resting:
+        margin = range_margin_deg(solution, limits)
+        for variant in turn_variants(puma, solution, limits):
+            assert range_margin_deg(variant, limits) <= margin + 1e-9
+    assert np.any(np.isclose(np.rad2deg(resting[:, 5]), 370.0))
+    assert len(resting_solutions(puma, puma.forward_kinematics(q), limits, lambda _: False)[0]) == 0
 
 
 def test_turn_variants_cover_every_turn_in_range(puma):
