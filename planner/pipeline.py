@@ -72,9 +72,11 @@ from .timing.robot_rows import RobotConstraints
 SUMMARY_DIGITS = 12
 
 
-@dataclass
+@dataclass(frozen=True)
 class PlanResult:
-    """Everything a plan produced, in SI units.
+    """Everything a plan produced, in SI units. Frozen: a result with another trajectory, via-points or
+    limits (``dataclasses.replace``) has its figures computed again, so ``feasible``, the summary and
+    ``save`` describe the trajectory it holds.
 
     Attributes:
         task: the validated task.
@@ -82,7 +84,7 @@ class PlanResult:
         limits: the limits planned against (robot's, with the task's overrides).
         optimization: the optimizer's result.
         trajectory: the final piecewise polynomial.
-        figures: its exact kinematic figures.
+        figures: its exact kinematic figures (computed from it, not given).
         timings_s: wall time of each stage [s].
         robot: the robot, for robot tasks.
         ik: one IK solution per Cartesian waypoint (residuals, branches, joint-space jumps).
@@ -101,7 +103,6 @@ class PlanResult:
     limits: JointLimits
     optimization: OptimizationResult
     trajectory: PiecewisePolynomial
-    figures: KinematicFigures
     timings_s: dict[str, float] = field(default_factory=dict)
     robot: Robot | None = None
     ik: list[IKSolution] | None = None
@@ -109,9 +110,33 @@ class PlanResult:
     branch_times: dict[str, float | None] = field(default_factory=dict)
     branch_kept: str | None = None
     robot_limits: RobotLimitOutcome | None = None
+    figures: KinematicFigures = field(init=False)
 
     def __post_init__(self):
-        self.via_points = read_only(self.via_points)  # the summary reads it
+        """Check that the parts belong together, and compute the trajectory's figures.
+
+        Raises:
+            InputError: a trajectory that is not a ``PiecewisePolynomial``, via-points or limits for
+                another number of joints, via-points the trajectory does not pass, or IK solutions for
+                another number of waypoints.
+        """
+        if not isinstance(self.trajectory, PiecewisePolynomial):
+            raise InputError(f"a plan result's trajectory must be a PiecewisePolynomial, not "
+                             f"{type(self.trajectory).__name__}")
+        via = np.asarray(self.via_points, dtype=float)
+        joints = self.trajectory.joint_count
+        if via.shape != (len(self.trajectory.via_knots), joints) or self.limits.joint_count != joints:
+            raise InputError(f"a plan result's via-points {via.shape} and limits ({self.limits.joint_count} joints) "
+                             f"must match its trajectory ({len(self.trajectory.via_knots)} via-points, {joints} "
+                             f"joints)")
+        missed = via_point_misses(self.trajectory, via, self.limits.names)
+        if missed:
+            raise InputError(f"a plan result's trajectory does not pass its via-points: {missed[0]}")
+        waypoints = self.task.cartesian_waypoints
+        if self.ik is not None and waypoints is not None and len(self.ik) != len(waypoints):
+            raise InputError(f"a plan result holds {len(self.ik)} IK solutions for {len(waypoints)} waypoints")
+        object.__setattr__(self, "via_points", read_only(via))  # the summary reads it
+        object.__setattr__(self, "figures", kinematic_figures(self.trajectory))
 
     @property
     def feasible(self) -> bool:
@@ -491,6 +516,11 @@ def robot_limits(robot: Robot, task: Task) -> JointLimits:
         raise MissingLimitError(f"robot {robot.name!r} gives joint {joint} a velocity limit of 0 in its URDF (a "
                                 f"placeholder: the joint could not move); give {key} in the task", joint=joint,
                                 quantity=LIMITED[0].name, key=key)
+    if robot.placeholder_range and task.limits.get("lower") is None:
+        joint = robot.placeholder_range[0]
+        raise MissingLimitError(f"robot {robot.name!r} gives joint {joint} the range [0, 0] in its URDF (a "
+                                f"placeholder: the joint could not move); give limits.position_deg in the task",
+                                joint=joint, quantity="position", key="limits.position_deg")
     limits = robot.limits.with_overrides(names=tuple(robot.joint_names), **task.limits)
     for quantity in LIMITED[1:]:  # acceleration and jerk; a velocity limit is optional
         missing = np.flatnonzero(~np.isfinite(getattr(limits, quantity.name)))
@@ -746,12 +776,16 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
 
     branch_times: dict[str, float | None] = {}
     timed, kept = None, task.ik.branch if ik is not None else None
+    # The via-points the comparison timed, and their timings: a straight-line round from the same
+    # via-points (one that inserts no pose) reuses them, rather than timing them again after the time limit.
+    compared_timings: list[tuple[np.ndarray, tuple]] = []
     # The other rule's sequence, where there is one that differs: (its IK, via-points, rule's name).
     second: tuple[list[IKSolution] | None, np.ndarray, str] | None = None
     if alternative is not None:
         other = np.array([solution.q for solution in alternative])
         if not np.allclose(other, via, rtol=0, atol=1e-9):
             mine, theirs = timed_or_none(via, "optimal"), timed_or_none(other, "continuous")
+            compared_timings += [(points, done) for points, done in ((via, mine), (other, theirs)) if done is not None]
             branch_times = {"optimal": compared_total(mine), "continuous": compared_total(theirs)}
             timed, second = mine, (alternative, other, "continuous")
             ours, others = branch_times["optimal"], branch_times["continuous"]
@@ -772,7 +806,8 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
             stopped = []
 
             def timed(points: np.ndarray):
-                trajectory, timing = time_via_points(points)
+                trajectory, timing = next((done for compared, done in compared_timings
+                                           if np.array_equal(compared, points)), None) or time_via_points(points)
                 stopped.append(timing[1].out_of_time)
                 return trajectory, timing
             try:
@@ -798,7 +833,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
             *_, distance, angle = tool_deviation(robot, trajectory, poses, waypoints)
             path = StraightPath(via, waypoints, np.zeros(len(poses) - 1, dtype=int), distance, angle, 1)
     timings["optimization"] = time.perf_counter() - start
-    met, figures = None, None
+    met = None
     if task.robot_limits.given:
         assert robot is not None  # the task schema requires a robot for them
         start = time.perf_counter()
@@ -816,7 +851,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         def retime(nlp_limits: RobotConstraints, start_durations: np.ndarray, timing: TimingProblem = problem):
             """The NLP's timing of ``timing`` (the kinematic problem, or one with a tighter h_max) with
             ``nlp_limits`` from ``start_durations`` (S,) [s], slowed down to meet the
-            robot limits densely (``meet``), with its kinematic figures and path; None where it cannot be kept:
+            robot limits densely (``meet``), with its path; None where it cannot be kept:
             the new durations reshape the spline between via-points, so its positions may leave a range (and in
             linear mode the tool the straight lines) where the kinematic optimum's did not, or its path may need
             more than a torque limit to hold still."""
@@ -826,8 +861,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
                 candidate, candidate_met = meet(retimed)
             except InfeasibleError:
                 return None
-            candidate_figures = kinematic_figures(candidate)
-            if candidate_figures.violations(limits):
+            if kinematic_figures(candidate).violations(limits):
                 return None
             candidate_path = path
             if path is not None:  # the tool's path changed with the spline: its deviations are measured again
@@ -837,7 +871,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
                                                        and np.all(angle <= task.path.tolerance_rad)):
                     return None
                 candidate_path = replace(path, max_distance_m=distance, max_angle_rad=angle)
-            return candidate, candidate_met, candidate_figures, candidate_path
+            return candidate, candidate_met, candidate_path
 
         if met.slow_down > 1 and retimes_in_nlp(settings) and constraints.supported:
             progress.note(f"slowed down {met.slow_down:.6g} times; timing again with the torque and tool-speed "
@@ -861,7 +895,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
                     found = tighter
             if found is not None and found[0].total_time < trajectory.total_time:
                 uniform_total = trajectory.total_time
-                trajectory, retimed_met, figures, path = found
+                trajectory, retimed_met, path = found
                 met = replace(retimed_met, uniform_total_s=uniform_total, kinematic_total_s=met.kinematic_total_s)
         check_slowed_bounds(trajectory.durations, settings["bounds"], met)
         if met.uniform_total_s is not None:
@@ -872,15 +906,13 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         timings["robot_limits"] = time.perf_counter() - start
     check_recordable(trajectory.total_time, slowed=met)
     check_sample_count(task, trajectory.total_time, slowed=met, out_of_time=result.out_of_time)
-    if figures is None:
-        figures = kinematic_figures(trajectory)
-    exceeded = max(figures.violations(limits), key=lambda violation: violation.ratio, default=None)
-    if exceeded is not None:  # never returned, whatever stage let it through (each checks its own result)
-        raise InfeasibleError(f"the planned trajectory fails the exact check: {exceeded}", violation=exceeded)
     broken = continuity_breaks(trajectory, limits.names) + via_point_misses(trajectory, via, limits.names)
     if broken:  # a spline is continuous and passes its via-points by construction: this guards the construction
         first = broken[0]
         raise InfeasibleError(f"the planned trajectory fails the exact check: {first}", joint=first.joint,
                               quantity=first.quantity, value=first.value, limit=first.limit)
-    return PlanResult(task, via, limits, result, trajectory, figures, timings, robot, ik, path, branch_times, kept,
-                      met)
+    planned = PlanResult(task, via, limits, result, trajectory, timings, robot, ik, path, branch_times, kept, met)
+    exceeded = max(planned.figures.violations(limits), key=lambda violation: violation.ratio, default=None)
+    if exceeded is not None:  # never returned, whatever stage let it through (each checks its own result)
+        raise InfeasibleError(f"the planned trajectory fails the exact check: {exceeded}", violation=exceeded)
+    return planned

@@ -68,6 +68,8 @@ class Robot:
         package_dirs: folders that resolve the URDF's ``package://`` meshes.
         placeholder_velocity: joints whose URDF velocity limit is 0, which exporters write as a
             placeholder: their ``limits.velocity`` is absent (+inf) and a task must give one.
+        placeholder_range: joints whose URDF range is [0, 0], the same placeholder: their position
+            range is absent and a task must give one (``limits.position_deg``).
         missing_meshes: meshes the URDF names that are not found (as named): nothing is drawn for them.
         locked_positions: where the joints that do not move the tool are held [rad or m], by name
             (one-coordinate joints; ``_locked_configuration``).
@@ -84,6 +86,7 @@ class Robot:
     urdf_path: Path
     package_dirs: tuple[Path, ...] = ()
     placeholder_velocity: tuple[str, ...] = ()
+    placeholder_range: tuple[str, ...] = ()
     missing_meshes: tuple[str, ...] = ()
     locked_positions: dict[str, float] = field(default_factory=dict)
     urdf_digest: str = ""
@@ -248,18 +251,21 @@ class Robot:
         extra_limits = _file_limits(Path(urdf_path).with_suffix(".limits.yaml"), extra_limits,
                                     list(reduced.names[1:]), list(model.names[1:]))
         velocity = np.where(reduced.velocityLimit > 0, reduced.velocityLimit, np.inf)
-        lower = np.where(np.isfinite(reduced.lowerPositionLimit), reduced.lowerPositionLimit, -np.inf)
-        upper = np.where(np.isfinite(reduced.upperPositionLimit), reduced.upperPositionLimit, np.inf)
+        # <limit lower="0" upper="0" velocity="0"/>: an exporter's placeholder, not a joint that cannot move
+        unset = (reduced.lowerPositionLimit == 0) & (reduced.upperPositionLimit == 0)
+        lower = np.where(np.isfinite(reduced.lowerPositionLimit) & ~unset, reduced.lowerPositionLimit, -np.inf)
+        upper = np.where(np.isfinite(reduced.upperPositionLimit) & ~unset, reduced.upperPositionLimit, np.inf)
         try:
             limits = JointLimits.create(reduced.nq, lower=lower, upper=upper, velocity=velocity,
                                         names=reduced.names[1:], **extra_limits)
         except InputError as exc:  # an empty range, a negative limit: the robot's files are at fault
             raise RobotFileError(f"robot {shown(name)} ({urdf_path}): {exc}", path=Path(urdf_path)) from None
         placeholder = tuple(reduced.names[int(j) + 1] for j in np.flatnonzero(reduced.velocityLimit == 0))
+        unset_range = tuple(reduced.names[int(j) + 1] for j in np.flatnonzero(unset))
         missing = check_meshes(Path(urdf_path), package_dirs)
         held = {model.names[j]: float(reference[model.joints[j].idx_q]) for j in locked if model.joints[j].nq == 1}
         return cls(name, reduced, reduced.createData(), tool_frame, _frame_id(reduced, tool_frame), limits,
-                   Path(urdf_path), package_dirs, placeholder, missing, held, file_digest(Path(urdf_path)))
+                   Path(urdf_path), package_dirs, placeholder, unset_range, missing, held, file_digest(Path(urdf_path)))
 
 
 def file_digest(path: Path) -> str:

@@ -10,12 +10,14 @@ import planner
 from conftest import assert_plan_holds, clipped_walk
 from planner import (
     InfeasibleError,
+    InputError,
     JointLimits,
     MissingLimitError,
     PlannerError,
     TaskError,
     UnknownFrameError,
     UnknownRobotError,
+    get_family,
     paper,
 )
 from planner.cli import main
@@ -277,6 +279,20 @@ def test_a_urdf_velocity_limit_of_zero_is_a_placeholder_the_task_must_replace(tm
                                                                              "limits.velocity_deg_s")
     data["limits"] = {"velocity_deg_s": [100] * 6}
     assert plan(parse_task(data)).summary()["feasible"]
+
+
+def test_a_urdf_range_of_zero_is_a_placeholder_the_task_must_replace():
+    """example-robot-data's double pendulums write <limit lower="0" upper="0" velocity="0"/>: the range
+    was refused as empty at load, before the task's position_deg could override it (sweep 20)."""
+    task = {"version": 1, "robot": {"name": "double_pendulum_simple", "tool_frame": "link3"},
+            "waypoints": {"joints_deg": [[0, 0], [40, -20], [90, 10]]},
+            "limits": {"velocity_deg_s": [60, 60], "acceleration_deg_s2": [120, 120], "jerk_deg_s3": [600, 600]}}
+    with pytest.raises(MissingLimitError, match=r"gives joint joint1 the range \[0, 0\] in its URDF \(a placeholder: "
+                                                r"the joint could not move\); give limits\.position_deg in the task"):
+        plan(task)
+    result = plan({**task, "limits": {**task["limits"], "position_deg": [[-90, 120], [-45, 45]]}})
+    assert_plan_holds(result)
+    np.testing.assert_allclose(np.rad2deg([result.limits.lower, result.limits.upper]), [[-90, -45], [120, 45]])
 
 
 def test_summary_feasible_is_the_exact_check_of_the_planned_limits():
@@ -642,3 +658,44 @@ def test_a_trajectory_longer_than_a_recording_holds_is_refused(tmp_path):
     assert 4e9 < result.trajectory.total_time < 9.2e9
     result.save(tmp_path / "out")
     assert read_recording(tmp_path / "out" / "trajectory.rrd").check().passed
+
+
+def test_a_straight_line_round_that_inserts_nothing_keeps_the_comparisons_timing():
+    """A 12-pose UR5 circle in straight-line mode within a 10 mm tolerance (no pose inserted) and a 0.5 s
+    time limit: the IK sequences' comparison timed the kept sequence (2.74 s), then the straight-line
+    round timed the same via-points again after the limit had passed and kept a start's shape (9.72 s,
+    sweep 20: 36.2 s against 2.92 s on a 100-pose circle). It now keeps the comparison's timing."""
+    angles = np.linspace(0, 2 * np.pi, 12)
+    poses = [{"xyz_m": [0.4 + 0.1 * np.cos(a), 0.1 * np.sin(a), 0.3], "rpy_deg": [180, 0, 90]} for a in angles]
+    result = plan({"version": 1, "robot": {"name": "ur5", "tool_frame": "tool0"}, "waypoints": {"cartesian": poses},
+                   "limits": {"acceleration_deg_s2": [150] * 6, "jerk_deg_s3": [600] * 6},
+                   "path": {"mode": "linear", "tolerance_m": 0.01}, "trajectory": {"family": "quintic"},
+                   "optimizer": {"time_limit_s": 0.5}})
+    assert result.path.inserted.sum() == 0 and set(result.branch_times) == {"optimal", "continuous"}
+    assert result.trajectory.total_time == result.branch_times[result.branch_kept]
+
+
+def test_a_plan_result_describes_the_trajectory_it_holds():
+    """A result given another trajectory (``dataclasses.replace``) was saved with the old figures:
+    summary.json said feasible with the old maxima beside a trajectory 8 times over its jerk limit (sweep
+    20). The figures are now computed from the trajectory held; parts that do not belong together are
+    refused, and the fields cannot be assigned."""
+    import dataclasses
+
+    result = plan(planner.make_task(name="two", joints_deg=[[0, 0], [40, -20], [90, 10]],
+                                    limits={"velocity_deg_s": [60, 60], "acceleration_deg_s2": [120, 120],
+                                            "jerk_deg_s3": [600, 600]}, trajectory={"family": "hybrid"}))
+    assert result.feasible and result.max_ratio == pytest.approx(1.0)
+    faster = dataclasses.replace(result, trajectory=get_family("hybrid").build(result.via_points,
+                                                                                result.trajectory.durations / 2))
+    assert not faster.feasible and faster.max_ratio == pytest.approx(8.0, rel=1e-6)
+    assert faster.summary()["feasible"] is False
+    with pytest.raises(InputError, match=r"does not pass its via-points: joint joint1 misses via-point 1 by 5\.7"):
+        dataclasses.replace(result, via_points=result.via_points + np.deg2rad([[0, 0], [5.7, 0], [0, 0]]))
+    with pytest.raises(InputError, match=r"via-points \(2, 2\) and limits \(2 joints\) must match its trajectory "
+                                         r"\(3 via-points, 2 joints\)"):
+        dataclasses.replace(result, via_points=result.via_points[:2])
+    with pytest.raises(InputError, match="trajectory must be a PiecewisePolynomial, not NoneType"):
+        dataclasses.replace(result, trajectory=None)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        result.trajectory = faster.trajectory
