@@ -57,6 +57,8 @@ from .interrupts import check as check_interrupted
 MARKER = ".planner-output"
 #: In every staging folder from its creation until publishing: a later run removes only folders holding it.
 STAGING_MARKER = ".planner-staging"
+#: How a refusal of a folder names the way past it: the command's flag, and save's parameter.
+FORCE = "--force (force=True from Python)"
 #: A staging folder is named ``.DIR.staging-`` and this many random hex digits.
 _STAGING_DIGITS = 8
 _RENAME_EXCHANGE = 2
@@ -234,15 +236,15 @@ def _check_folder(folder: Path, force: bool, files: set[str]) -> tuple[Path, boo
             names = ", ".join(sorted(other)[:5]) + (", ..." if len(other) > 5 else "")
             raise OutputError(f"output folder {folder} holds outputs the planner wrote that this run does not write "
                               f"({shown(names)}: another command's, a plan's or a reproduction's), which it would "
-                              f"replace; give another folder, or add --force to write beside them (files of the "
-                              f"same names are replaced, others kept)")
+                              f"replace; give another folder, or add {FORCE} to write beside them (files of the same "
+                              f"names are replaced, others kept)")
         if owned is None and _older_marker(folder):
             raise OutputError(f"output folder {folder} was written by an older version of the planner, whose marker "
-                              f"({MARKER}) does not record what it wrote; give a new folder, or add --force to "
-                              f"write into it (files of the same names are replaced, others kept)")
+                              f"({MARKER}) does not record what it wrote; give a new folder, or add {FORCE} to write "
+                              f"into it (files of the same names are replaced, others kept)")
         names = ", ".join(sorted(foreign)[:5]) + (", ..." if len(foreign) > 5 else "")
         raise OutputError(f"output folder {folder} holds files the planner did not write ({shown(names)}); "
-                          f"give an empty or new folder, or add --force to write into it (files of the same "
+                          f"give an empty or new folder, or add {FORCE} to write into it (files of the same "
                           f"names are replaced, others kept)")
     cwd = Path.cwd().resolve()
     in_place = bool(foreign) or folder == cwd or folder in cwd.parents or os.path.ismount(folder)

@@ -263,7 +263,9 @@ class PlanResult:
     def write(self, folder: Path, *, writers: WarmWorkers | None = None) -> None:
         """Write summary.json, trajectory.csv, coefficients.json, profiles.png and trajectory.rrd into
         the existing ``folder`` (no atomicity of its own: ``save`` provides it), with ``writers``
-        (``output_writers()``, started before planning) or processes forked now.
+        (``output_writers()``, started before planning) or processes forked now. The files are the
+        caller's: no marker records them as the planner's, so a later ``save`` into the folder treats
+        them as any user's files (replaced only with ``force``).
 
         Raises:
             OutputError: ``folder`` is no existing folder, or holds one of the files already (``write``

@@ -58,6 +58,7 @@ from .kinematics import continuity_breaks, kinematic_figures, via_point_misses
 from .limits import DEGREE_UNITS, PROFILE_QUANTITIES, QUANTITIES, JointLimits
 from .outputs import not_utf8, utf8_path
 from .splines import PiecewisePolynomial
+from .validate import CONTROL_CHARACTERS
 
 APPLICATION_ID = "planner"
 FORMAT = "planner-recording/v2"
@@ -654,13 +655,16 @@ def read_recording(path) -> RecordedPlan:
     if not chunks.keys() & {_DEFINITION, _SAMPLES, _END} and application != APPLICATION_ID:
         raise RecordingError(f"{path}: not a planner recording (no trajectory definition of format {FORMAT})")
     definition_text = _single_text(path, chunks.get(_DEFINITION, []), "planner_definition")
+    if definition_text is None and application != APPLICATION_ID:
+        raise RecordingError(f"{path}: not a planner recording (application {shown(application)}, no trajectory "
+                             f"definition of format {FORMAT})")
     if definition_text is None:
         raise RecordingError(f"{path}: recording is incomplete: no trajectory/definition")
     names, trajectory, limits, via_points = _definition(path, definition_text)
     end_text = _single_text(path, chunks.get(_END, []), "planner_end")
     if end_text is None:
-        raise RecordingError(f"{path}: recording is incomplete: no end marker (trajectory/end, written last); "
-                             "the file was cut short")
+        raise RecordingError(f"{path}: recording is incomplete: no end marker (trajectory/end, written last: the "
+                             "file was cut short, or is not as the planner wrote it)")
     count, rate_hz, span = _end(path, end_text, trajectory.total_time)
     times_ns, positions = _samples(path, chunks.get(_SAMPLES, []), len(names))
     _require_complete(path, times_ns, count, rate_hz, span)
@@ -766,8 +770,9 @@ def _definition(path: Path, text: str) -> tuple[list[str], PiecewisePolynomial, 
                              "(not a planner recording, or one from another planner version)")
     names = data.get("joint_names")
     if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names) \
-            or len(set(names)) < len(names):
-        raise RecordingError(f"{where}: joint_names must be a non-empty list of distinct texts, got {shown(names)}")
+            or len(set(names)) < len(names) or any(CONTROL_CHARACTERS.search(name) for name in names):
+        raise RecordingError(f"{where}: joint_names must be a non-empty list of distinct texts without control "
+                             f"characters, got {shown(names)}")
     durations = _numbers(where, data, "durations_s")
     shape = data.get("coefficients_shape")
     if not (isinstance(shape, list) and len(shape) == 3 and all(_is_count(n) for n in shape)
@@ -854,11 +859,14 @@ def _require_complete(path: Path, times_ns: np.ndarray, count: int, rate_hz: flo
                       span: tuple[float, float]) -> None:
     """Samples as the end marker says: ``count`` of them from span[0] to span[1], none twice, no gap > 1/rate."""
     incomplete = f"{path}: recording is incomplete:"
-    if len(times_ns) != count:
+    if len(times_ns) < count:
         raise RecordingError(f"{incomplete} {len(times_ns)} of the {count} samples the end marker announces")
     steps = np.diff(times_ns)
     if np.any(steps == 0):
         raise RecordingError(f"{incomplete} two samples at {_seconds(times_ns[np.argmax(steps == 0)])}")
+    if len(times_ns) > count:
+        raise RecordingError(f"{path}: recording is not as the planner wrote it: {len(times_ns)} samples where the "
+                             f"end marker announces {count}")
     start, end = span[0] * 1e9, span[1] * 1e9
     if abs(times_ns[0] - start) > _TIME_QUANTUM_NS:
         raise RecordingError(f"{incomplete} samples start at {_seconds(times_ns[0])}, not at {span[0]!r} s")

@@ -255,15 +255,20 @@ class SplineFamily:
 
     def segment_count(self, via_count: int) -> int:
         """How many durations the family needs for ``via_count`` via-points."""
-        raise NotImplementedError
+        raise NotImplementedError(self._abstract("segment_count"))
 
     def via_knots(self, via_count: int) -> np.ndarray:
         """Indices of the knots at which the via-points are passed."""
-        raise NotImplementedError
+        raise NotImplementedError(self._abstract("via_knots"))
 
     def batch_coefficients(self, via_points: np.ndarray, durations: np.ndarray) -> np.ndarray:
         """(B, S, J, D+1) coefficients for durations (B, S); inputs already validated."""
-        raise NotImplementedError
+        raise NotImplementedError(self._abstract("batch_coefficients"))
+
+    def _abstract(self, method: str) -> str:
+        """Why a family that defines no ``method`` cannot be used."""
+        return (f"{type(self).__name__} does not define {method}: SplineFamily is the base a family derives from; "
+                f"get_family(name) gives one of {', '.join(FAMILIES)}")
 
     def coefficients_from_states(self, via_points: np.ndarray, durations: np.ndarray,
                                  states: np.ndarray) -> np.ndarray:

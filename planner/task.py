@@ -39,7 +39,6 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-import re
 from collections.abc import Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -55,7 +54,7 @@ from .read_only import ReadOnlyArrays, freeze_arrays
 from .splines import FAMILIES
 from .timing import OPTIMIZERS, SETTING_RANGES, checked_settings, setting_names
 from .timing.problem import OBJECTIVES
-from .validate import DURATION_BOUND_RANGE, MAX_SEED, Range, number, ranged, within
+from .validate import CONTROL_CHARACTERS, DURATION_BOUND_RANGE, MAX_SEED, Range, number, ranged, within
 from .yaml_input import MAX_NESTING, key_path, read_yaml
 
 SCHEMA_VERSION = 1
@@ -76,9 +75,6 @@ _LIMIT_KEY_OF = {**{name: key for key, name in _LIMIT_KEYS.items()}, "lower": PR
 _COMMON_OPTIMIZER_KEYS = ("algorithm", "seed", "bounds_s", "objective", "weights", "time_limit_s")
 #: Default wall-time limit of the timing optimization [s]: past it, the best timing found so far is kept.
 TIME_LIMIT_S = 120.0
-#: Characters no name or label may hold: control characters, and those that move or reorder the text around
-#: them (line and paragraph separators U+2028, U+2029; bidirectional overrides such as U+202E).
-_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029\u200e\u200f\u202a-\u202e\u2066-\u2069]")
 
 
 #: Every number in a list of angles (joint waypoints, ranges, hints, start, roll-pitch-yaw) [deg]:
@@ -284,7 +280,7 @@ def _text(value, path: str) -> str:
     """A non-empty string without control characters."""
     if not isinstance(value, str) or not value:
         raise TaskError(path, f"must be a non-empty string, got {shown(value)}")
-    if _CONTROL.search(value):
+    if CONTROL_CHARACTERS.search(value):
         raise TaskError(path, f"must not contain control characters (nor line separators or bidirectional "
                               f"overrides), got {shown(value)}")
     try:
@@ -522,7 +518,7 @@ def _check_joint_counts(joints: int, limits: dict[str, np.ndarray]) -> None:
     check_limit_counts(limits, joints, "(one per joint, as the via-points have)")
 
 
-def parse_task(data, *, name: str = "task", source: Path | None = None) -> Task:
+def parse_task(data, *, name: str = "task", source: str | os.PathLike | None = None) -> Task:
     """Validate a task given as plain data (the parsed YAML)."""
     document = _mapping(data, "", _TOP_KEYS)
     if "version" not in document:
@@ -532,7 +528,10 @@ def parse_task(data, *, name: str = "task", source: Path | None = None) -> Task:
         raise TaskError("version", f"unsupported version {shown(version)}; this planner reads {SCHEMA_VERSION}")
     if "waypoints" not in document:
         raise TaskError("waypoints", "is required")
-    base = source.parent if source else None
+    if source is not None and not isinstance(source, (str, os.PathLike)):
+        raise TaskError("", f"a task's source is the path of its file (text or path-like) or None, got "
+                            f"{shown(source)}")
+    base = Path(source).parent if source is not None else None
     robot = _robot(document["robot"], "robot", base) if "robot" in document else None
     joints, cartesian = _waypoints(document["waypoints"], "waypoints")
     if cartesian is not None and robot is None:
@@ -568,8 +567,8 @@ def parse_task(data, *, name: str = "task", source: Path | None = None) -> Task:
     if len(label) > MAX_NAME_CHARS:
         raise TaskError("name", f"must be at most {MAX_NAME_CHARS} characters (it titles figures and files), "
                                 f"got {len(label)}")
-    return Task(label, joints, cartesian, robot, limits, family, rate, min_segment, optimizer, source, ik, path,
-                robot_limits)
+    return Task(label, joints, cartesian, robot, limits, family, rate, min_segment, optimizer,
+                None if source is None else Path(source), ik, path, robot_limits)
 
 
 def _degrees(values) -> list:

@@ -5,11 +5,16 @@ from __future__ import annotations
 
 import math
 import numbers
+import re
 from dataclasses import dataclass
 
 import numpy as np
 
 from .errors import InputError, shown
+
+#: Characters no name or label may hold: control characters, and those that move or reorder the text around
+#: them (line and paragraph separators U+2028, U+2029; bidirectional overrides such as U+202E).
+CONTROL_CHARACTERS = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029\u200e\u200f\u202a-\u202e\u2066-\u2069]")
 
 #: Largest seed of the random generators (numpy takes seeds in [0, 2^63) here).
 MAX_SEED = 2**63 - 1

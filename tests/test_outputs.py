@@ -213,8 +213,8 @@ def test_another_commands_outputs_are_kept_as_a_users_files(tmp_path):
     plan_files, report_files = ("summary.json", "trajectory.csv"), ("reproduction.md",)
     write_outputs(out, {"summary.json": "plan", "trajectory.csv": "t"}, files=plan_files)
     with pytest.raises(OutputError, match=r"holds outputs the planner wrote that this run does not write "
-                                          r"\('summary.json, trajectory.csv': another command's.*--force to write "
-                                          r"beside them"):
+                                          r"\('summary.json, trajectory.csv': another command's.*--force \(force=True "
+                                          r"from Python\) to write beside them"):
         write_outputs(out, {"reproduction.md": "report"}, files=report_files)
     assert contents(out) | {MARKER: ""} == {"summary.json": "plan", "trajectory.csv": "t", MARKER: ""}
     write_outputs(out, {"reproduction.md": "report"}, files=report_files, force=True)

@@ -169,7 +169,7 @@ def small_plan():
 
 
 def write_like_planner(path, *, definition="valid", times="valid", positions="valid", end="valid",
-                       rows=None, static_samples=False):
+                       rows=None, static_samples=False, application="planner"):
     """A recording written with rerun directly at the planner's entity paths; "valid" parts are the planner's own,
     None leaves a part out, and ``rows`` logs samples one by one as (time, values)."""
     import rerun as rr
@@ -181,7 +181,7 @@ def write_like_planner(path, *, definition="valid", times="valid", positions="va
         definition = json.dumps(trajectory_definition(trajectory, limits, ["shoulder", "elbow"]))
     if isinstance(end, str) and end == "valid":
         end = json.dumps(end_marker(valid_times, RATE_HZ))
-    rec = rr.RecordingStream("planner")
+    rec = rr.RecordingStream(application)
     rec.save(str(path))
     if definition is not None:
         rec.log("trajectory/definition", rr.AnyValues(planner_definition=definition), static=True)
@@ -285,6 +285,16 @@ MALFORMED = {  # case: (write_like_planner arguments, a text the message must ho
     "joint_names of numbers": (dict(definition=_definition(joint_names=[1, 2])), "joint_names"),
     "joint_names empty": (dict(definition=_definition(joint_names=[])), "joint_names"),
     "joint_names repeated": (dict(definition=_definition(joint_names=["a", "a"])), "distinct texts"),
+    "joint_names with a newline": (dict(definition=_definition(joint_names=["sho\nulder", "elbow"])),
+                                   "without control characters"),
+    "joint_names with an escape": (dict(definition=_definition(joint_names=["\x1b[2J", "elbow"])),
+                                   "without control characters"),
+    "a sample more than announced": (dict(times=np.append(_TIMES, _TIMES[-1] + _PERIOD),
+                                          positions=np.vstack((_POSITIONS, _POSITIONS[-1:]))),
+                                     "recording is not as the planner wrote it: 202 samples where the end marker "
+                                     "announces 201"),
+    "another application's samples": (dict(application="my_app", definition=None),
+                                      "not a planner recording (application 'my_app', no trajectory definition"),
     "via_points_rad of one via knot too few": (dict(definition=_definition(via_points_rad=[[0, 0], [1, 0.5]])),
                                                "via_points_rad must be 3 lists (one per via knot) of 2 positions"),
     "via_points_rad with a text": (dict(definition=_definition(via_points_rad=[[0, 0], [0.5, "x"], [1, 0.5]])),

@@ -646,3 +646,21 @@ def test_a_task_checked_again_keeps_its_numbers_exactly(via, velocity):
     checked = check_task(replace(task, joint_waypoints=via, limits={"velocity": velocity}))
     assert np.array_equal(checked.joint_waypoints, via) and np.array_equal(checked.limits["velocity"], velocity)
     assert checked.joint_waypoints is not via and not checked.joint_waypoints.flags.writeable
+
+
+def test_a_tasks_source_may_be_any_path_like_and_nothing_else():
+    """A hand-built Task whose source was a text (the field is a Path) crashed the planner with a bare
+    AttributeError (sweep 20): a text or path-like is taken, its folder resolving the robot's URDF;
+    anything else is a TaskError."""
+    import dataclasses
+
+    from planner.task import check_task
+
+    loaded = load_task(PAPER_CARTESIAN)  # robot: {urdf: ../../robots/puma560.urdf}, relative to the file
+    assert Path(loaded.robot.urdf).resolve() == (ROOT / "robots" / "puma560.urdf").resolve()
+    for source in (str(PAPER_CARTESIAN), PAPER_CARTESIAN):
+        checked = check_task(dataclasses.replace(loaded, source=source))
+        assert checked.source == PAPER_CARTESIAN and checked.robot == loaded.robot
+    with pytest.raises(TaskError, match=r"a task's source is the path of its file \(text or path-like\) or None, "
+                                        r"got 5"):
+        parse_task(yaml.safe_load(PAPER_JOINT.read_text()), source=5)
