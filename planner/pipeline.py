@@ -5,6 +5,7 @@ Each stage takes and returns plain objects; this module only wires them.
 
 from __future__ import annotations
 
+import hashlib
 import os
 import time
 from collections.abc import Callable, Mapping
@@ -94,6 +95,8 @@ class PlanResult:
         branch_kept: the rule (``optimal`` or ``continuous``) whose IK sequence was planned, or ``tracked``:
             in linear mode, the solutions the straight lines reach from a rule's first (``_follow_lines``).
         robot_limits: how the torque and tool-speed limits were met, where the task gives them.
+        measured_on: ``trajectory_digest`` of the trajectory ``path`` and ``robot_limits`` were measured on
+            (a result with another trajectory and either of them is refused); "" where not recorded.
         path: for Cartesian tasks, how the tool follows the straight segments between
             waypoints (``linear`` mode) or strays from them (``joint`` mode).
     """
@@ -110,6 +113,7 @@ class PlanResult:
     branch_times: dict[str, float | None] = field(default_factory=dict)
     branch_kept: str | None = None
     robot_limits: RobotLimitOutcome | None = None
+    measured_on: str = ""
     figures: KinematicFigures = field(init=False)
 
     def __post_init__(self):
@@ -117,8 +121,9 @@ class PlanResult:
 
         Raises:
             InputError: a trajectory that is not a ``PiecewisePolynomial``, via-points or limits for
-                another number of joints, via-points the trajectory does not pass, or IK solutions for
-                another number of waypoints.
+                another number of joints, via-points the trajectory does not pass, IK solutions for
+                another number of waypoints, or a tool path or robot-limit figures measured on another
+                trajectory (``measured_on``).
         """
         if not isinstance(self.trajectory, PiecewisePolynomial):
             raise InputError(f"a plan result's trajectory must be a PiecewisePolynomial, not "
@@ -136,6 +141,10 @@ class PlanResult:
         if self.ik is not None and waypoints is not None and len(self.ik) != len(waypoints):
             raise InputError(f"a plan result holds {len(self.ik)} IK solutions for {len(waypoints)} waypoints")
         object.__setattr__(self, "via_points", read_only(via))  # the summary reads it
+        if self.measured_on and (self.path is not None or self.robot_limits is not None) \
+                and self.measured_on != trajectory_digest(self.trajectory):
+            raise InputError("a plan result's tool path and robot-limit figures were measured on the trajectory "
+                             "planned, not on this one: plan again for another trajectory")
         object.__setattr__(self, "figures", kinematic_figures(self.trajectory))
 
     @property
@@ -498,6 +507,15 @@ def check_slowed_bounds(durations: np.ndarray, bounds: tuple[float, float] | Non
     raise TaskError(_binding_limit(slowed), f"{_lengthening(slowed, total)}, and segment {k} {value} s long, above "
                                             f"the duration bound h_max = {bound} s (optimizer.bounds_s): raise "
                                             f"h_max or the limit")
+
+
+def trajectory_digest(trajectory: PiecewisePolynomial) -> str:
+    """The SHA-256 of a trajectory's durations, coefficients and via knots, in hex: what a plan result's
+    tool path and robot-limit figures were measured on (``PlanResult.measured_on``)."""
+    digest = hashlib.sha256()
+    for part in (trajectory.durations, trajectory.coefficients, trajectory.via_knots):
+        digest.update(np.ascontiguousarray(part).tobytes())
+    return digest.hexdigest()
 
 
 def shortest_total_time(via: np.ndarray, limits: JointLimits, task: Task) -> float:
@@ -913,7 +931,8 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         first = broken[0]
         raise InfeasibleError(f"the planned trajectory fails the exact check: {first}", joint=first.joint,
                               quantity=first.quantity, value=first.value, limit=first.limit)
-    planned = PlanResult(task, via, limits, result, trajectory, timings, robot, ik, path, branch_times, kept, met)
+    planned = PlanResult(task, via, limits, result, trajectory, timings, robot, ik, path, branch_times, kept, met,
+                         trajectory_digest(trajectory))
     exceeded = max(planned.figures.violations(limits), key=lambda violation: violation.ratio, default=None)
     if exceeded is not None:  # never returned, whatever stage let it through (each checks its own result)
         raise InfeasibleError(f"the planned trajectory fails the exact check: {exceeded}", violation=exceeded)

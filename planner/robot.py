@@ -35,7 +35,7 @@ from .errors import (
 )
 from .limits import LIMIT_DEG_RANGE, LIMITED, JointLimits
 from .native_output import stderr_captured
-from .validate import finite_array, float_array, positive_finite
+from .validate import CONTROL_CHARACTERS, finite_array, float_array, positive_finite
 from .yaml_input import read_yaml
 
 #: Largest URDF file loaded [bytes]: the parser reads about 1 MB/s of XML.
@@ -223,6 +223,9 @@ class Robot:
             raise RobotFileError(f"cannot build the chain of robot {shown(name)} to frame {shown(tool_frame)}: "
                                  f"{_first_line(str(exc))}", path=Path(urdf_path)) from None
         for j in range(1, reduced.njoints):
+            if CONTROL_CHARACTERS.search(reduced.names[j]):  # a "&#10;" in the URDF: it would break CSV headers
+                raise RobotFileError(f"joint {reduced.names[j]!r} of robot {shown(name)} ({urdf_path}) has a control "
+                                     f"character in its name (a line break, say): rename it", path=Path(urdf_path))
             kind = reduced.joints[j].shortname()
             if kind in _PRISMATIC:
                 raise UnsupportedRobotError(f"joint {reduced.names[j]!r} of robot {shown(name)} is prismatic ({kind}); "

@@ -7,7 +7,7 @@ import pytest
 import yaml
 
 import planner
-from conftest import assert_plan_holds, clipped_walk
+from conftest import UR5_FAST, UR5_PICK_POSES, assert_plan_holds, clipped_walk
 from planner import (
     InfeasibleError,
     InputError,
@@ -699,3 +699,18 @@ def test_a_plan_result_describes_the_trajectory_it_holds():
         dataclasses.replace(result, trajectory=None)
     with pytest.raises(dataclasses.FrozenInstanceError):
         result.trajectory = faster.trajectory
+
+
+def test_a_plan_result_with_a_tool_path_refuses_another_trajectory():
+    """The tool path's deviations and the tool-speed figures describe the trajectory planned: a result
+    given another one kept them (saved as "within 0.875 mm of the line" where the tool strayed 50.8 mm,
+    sweep 20). It is refused; the same trajectory again is taken."""
+    import dataclasses
+
+    result = plan({"version": 1, "robot": {"name": "ur5", "tool_frame": "tool0"},
+                   "waypoints": {"cartesian": UR5_PICK_POSES[:2]}, "limits": {**UR5_FAST, "tool_speed_m_s": 0.5}})
+    assert result.path is not None and result.robot_limits is not None
+    slower = get_family(result.task.family).build(result.via_points, result.trajectory.durations * 2)
+    with pytest.raises(InputError, match="tool path and robot-limit figures were measured on the trajectory planned"):
+        dataclasses.replace(result, trajectory=slower)
+    assert dataclasses.replace(result, timings_s={}).figures.max_abs.tolist() == result.figures.max_abs.tolist()

@@ -578,3 +578,15 @@ def test_the_urdf_drawn_names_only_the_meshes_checked(tmp_path, monkeypatch):
     root = ElementTree.fromstring(drawable_urdf(urdf, robot.package_dirs))
     assert [m.get("filename") for m in root.iter("mesh")] == [str((tmp_path / "link.stl").resolve())]
     assert root.find("link[@name='base']").find("visual") is None
+
+
+def test_a_joint_name_with_a_control_character_is_refused(tmp_path):
+    """A character reference such as "&#10;" keeps a line break in a URDF name: the planner wrote it into
+    CSV headers and recordings (which replay refuses); it is refused at load."""
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text(chain_urdf([("j1", "base", "l1"), ("j&#10;2", "l1", "l2"), ("j3", "l2", "l3"),
+                                ("j4", "l3", "tool")]))
+    with pytest.raises(RobotFileError, match=r"joint 'j\\n2' of robot 'x' \(.*arm\.urdf\) has a control character in "
+                                             r"its name \(a line break, say\): rename it$"):
+        Robot.from_urdf(urdf, "tool")
+    assert Robot.from_urdf(urdf, "l1").joint_names == ["j1"]  # off the planned chain: no matter
