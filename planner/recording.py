@@ -652,8 +652,6 @@ def read_recording(path) -> RecordedPlan:
     except OSError as exc:  # a name too long, a folder on the way that cannot be read
         raise RecordingError(f"{shown(str(path))}: {exc.strerror or exc}") from None
     application, chunks = _trajectory_chunks(path)
-    if not chunks.keys() & {_DEFINITION, _SAMPLES, _END} and application != APPLICATION_ID:
-        raise RecordingError(f"{path}: not a planner recording (no trajectory definition of format {FORMAT})")
     definition_text = _single_text(path, chunks.get(_DEFINITION, []), "planner_definition")
     if definition_text is None and application != APPLICATION_ID:
         raise RecordingError(f"{path}: not a planner recording (application {shown(application)}, no trajectory "

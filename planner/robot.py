@@ -154,8 +154,8 @@ class Robot:
             raise RobotFileError(f"cannot load URDF {path}: larger than {MAX_URDF_BYTES >> 20} MiB "
                                  f"(a robot description, its meshes apart, is well under 1 MiB)", path=path)
         _check_utf8(path)
-        _check_well_formed(path)
-        _check_tree(path)
+        root = _well_formed_root(path)
+        _check_tree(root, path)
         with stderr_captured() as parser_log:
             failure: Exception | None
             try:
@@ -165,10 +165,10 @@ class Robot:
             else:
                 failure = None
         if failure is not None:
-            problem = _negative_limit(path) or f"{_first_line(str(failure))}{_detail(parser_log)}"
+            problem = _negative_limit(root) or f"{_first_line(str(failure))}{_detail(parser_log)}"
             raise RobotFileError(f"cannot load URDF {path}: {problem}", path=path) from None
         swallowed = "Could not parse" in "".join(parser_log)  # the parser logs a bad <inertial> and goes on
-        problem = _bad_mass(path) or (f"an element the URDF parser skipped{_detail(parser_log)}" if swallowed else "")
+        problem = _bad_mass(root) or (f"an element the URDF parser skipped{_detail(parser_log)}" if swallowed else "")
         if problem:
             raise RobotFileError(f"cannot load URDF {path}: {problem}", path=path)
         extra = _read_limit_file(path.with_suffix(".limits.yaml"))
@@ -350,7 +350,7 @@ def urdf_elements(urdf_path: Path, tag: str) -> list:
 
 def _urdf_root(urdf_path: Path):
     """The URDF's root element (ElementTree); an empty ``<robot>`` where the file cannot be read (a URDF
-    given by path is refused before unless well-formed: ``_check_well_formed``)."""
+    given by path is refused before unless well-formed: ``_well_formed_root``)."""
     import xml.etree.ElementTree as ElementTree
 
     try:
@@ -359,10 +359,11 @@ def _urdf_root(urdf_path: Path):
         return ElementTree.Element("robot")
 
 
-def _check_well_formed(path: Path) -> None:
-    """Refuse a URDF that is not well-formed XML (text after ``</robot>``, say): Pinocchio's and Rerun's
-    parsers accept some such files, but the planner's own checks (mimic joints, limits, masses,
-    meshes: ``urdf_elements``) read the file as XML, and would pass it unchecked.
+def _well_formed_root(path: Path):
+    """The URDF's root element (ElementTree), which the checks at load read; a URDF that is not
+    well-formed XML (text after ``</robot>``, say) is refused: Pinocchio's and Rerun's parsers accept
+    some such files, but the planner's own checks (mimic joints, limits, masses, meshes:
+    ``urdf_elements``) read the file as XML, and would pass it unchecked.
 
     Raises:
         RobotFileError: naming the XML error and where it is.
@@ -370,7 +371,7 @@ def _check_well_formed(path: Path) -> None:
     import xml.etree.ElementTree as ElementTree
 
     try:
-        ElementTree.parse(path)
+        return ElementTree.parse(path).getroot()
     except ElementTree.ParseError as exc:
         xacro = "xacro:" in path.read_text(encoding="utf-8", errors="replace")
         remedy = "expand the xacro macros first (xacro FILE > ROBOT.urdf)" if xacro else "fix the file"
@@ -380,7 +381,7 @@ def _check_well_formed(path: Path) -> None:
         raise RobotFileError(f"cannot load URDF {path}: cannot read it ({exc.strerror or exc})", path=path) from None
 
 
-def _check_tree(path: Path) -> None:
+def _check_tree(root, path: Path) -> None:
     """Refuse a URDF whose joints do not make its links a tree: a link that is the child of two joints,
     or links that are each other's ancestors (a loop). Pinocchio's parser drops the links of a loop
     without a word (the tool frame then seems unknown) and reports a second parent joint as some
@@ -390,7 +391,7 @@ def _check_tree(path: Path) -> None:
         RobotFileError: naming the link and its two parent joints, or the loop's joints in order.
     """
     parent_joint: dict[str, tuple[str, str]] = {}  # child link -> (joint, parent link)
-    for joint in urdf_elements(path, "joint"):
+    for joint in root.findall("joint"):
         parent, child = (joint.find(end) for end in ("parent", "child"))
         if parent is None or child is None or parent.get("link") is None or child.get("link") is None:
             continue
@@ -443,10 +444,11 @@ def _check_utf8(path: Path) -> None:
                              path=path) from None
 
 
-def _negative_limit(urdf_path: Path) -> str:
+def _negative_limit(root) -> str:
     """The first ``<limit velocity|effort>`` of the URDF below zero, as ``joint 'j1': <limit velocity>
-    must be >= 0, got -2``; '' if none. Pinocchio refuses such a file without naming the joint."""
-    for joint in urdf_elements(urdf_path, "joint"):
+    must be >= 0, got -2``; '' if none, in the URDF's ``root`` element. Pinocchio refuses such a file
+    without naming the joint."""
+    for joint in root.findall("joint"):
         for limit in joint.findall("limit"):
             for attribute in ("velocity", "effort"):
                 try:
@@ -459,11 +461,12 @@ def _negative_limit(urdf_path: Path) -> str:
     return ""
 
 
-def _bad_mass(urdf_path: Path) -> str:
+def _bad_mass(root) -> str:
     """The first link whose ``<inertial><mass value>`` is not a finite number >= 0, as ``link 'l2':
     <mass value> must be a finite number >= 0, got 'nan'``; '' if none. Pinocchio's parser leaves a link
-    of unreadable mass massless and takes a negative one as it is, so the torques would be wrong."""
-    for link in urdf_elements(urdf_path, "link"):
+    of unreadable mass massless and takes a negative one as it is, so the torques would be wrong.
+    ``root``: the URDF's root element."""
+    for link in root.findall("link"):
         for mass in link.findall("inertial/mass"):
             try:
                 value = float(mass.get("value", ""))
