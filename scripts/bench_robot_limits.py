@@ -24,7 +24,9 @@ time-parametrizes the same geometric path (a cubic spline through the planned tr
 positions at 200 Hz, in s = t / T) under the same velocity, acceleration and torque limits, and
 gives TOPP-RA's duration and wall time beside the planner's (no jerk limit there).
 
-    python scripts/bench_robot_limits.py [--repeats 3] [--toppra]
+``--family NAME`` plans every case with that spline family instead of the task's own (``hybrid``).
+
+    python scripts/bench_robot_limits.py [--repeats 3] [--toppra] [--family hermite7]
 """
 
 from __future__ import annotations
@@ -126,13 +128,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--toppra", action="store_true", help="TOPP-RA on the same path (extra [bench])")
+    parser.add_argument("--family", help="the spline family of every case (default: the task's)")
     args = parser.parse_args()
     if args.toppra:
         try:
             import toppra  # noqa: F401
         except ImportError:
             parser.error("--toppra needs TOPP-RA, the bench extra: pip install '.[bench]'")
-    print(f"median of {args.repeats} runs in-process after a warm-up\n")
+    print(f"median of {args.repeats} runs in-process after a warm-up"
+          f"{f', family {args.family}' if args.family else ''}\n")
     header = ("| task | case | total time [s] | slow-down | uniform slow-down [s] | plan wall [s] | dense torque ratio "
               "| dense tool speed [m/s] | dense tool speed [deg/s] |")
     if args.toppra:
@@ -143,6 +147,8 @@ def main() -> None:
         document = yaml.safe_load(task_file.read_text())
         if "urdf" in document.get("robot", {}):
             document["robot"]["urdf"] = str((task_file.parent / document["robot"]["urdf"]).resolve())
+        if args.family:
+            document.setdefault("trajectory", {})["family"] = args.family
         for case, changed in cases(document, plan(document)).items():  # that first plan is the warm-up
             walls = []
             for _ in range(args.repeats):

@@ -107,6 +107,9 @@ from .starts import recombined
 log = logging.getLogger(__name__)
 
 MAX_ROUNDS = 12
+#: The robot model's trust region in position (``TimingNLP.solve``): a round whose model ends this far
+#: off the truth (a fraction of a limit), and not half as far as the round before, halves the region.
+TRUST_SHRINK_GAP = 5e-2
 #: Extremes inside a segment beyond (1 - FLAG_MARGIN) of their bound get a certificate.
 FLAG_MARGIN = 0.05
 #: Where the first round cuts a quantity with no extreme inside a segment (normalised time): both sides.
@@ -272,6 +275,9 @@ class TimingNLP:
     def __init__(self, problem: TimingProblem, reference: np.ndarray, robot: RobotConstraints | None = None):
         self.problem = problem
         self.robot = robot if robot is not None and robot.supported else None
+        #: the robot rows come with a trust region in position (``TRUST_RADIUS``): a family with free
+        #: via-point states, whose positions at the samples those states move
+        self.trusted = self.robot is not None and problem.family.free_states
         family = problem.family
         reference = np.asarray(reference, dtype=float)
         coefficients = family.batch_coefficients(problem.via_points, reference[None])
@@ -298,7 +304,12 @@ class TimingNLP:
     def solve(self, start: np.ndarray, report: Callable[[NLPOutcome], None] | None = None) -> NLPOutcome:
         """Solve from durations ``start`` (S,) [s], adding certificates round by round; ``report``, if
         given, is called with each solved round's outcome (status ``OUT_OF_TIME``: what the solve
-        returns if the time limit ends it there, ``_solve_all``)."""
+        returns if the time limit ends it there, ``_solve_all``). With robot rows, each round refits the
+        robot model at the last round's trajectory; where the via-point states are free (``trusted``), a
+        trust region in position r [rad] bounds how far the positions at the model's samples move in a
+        round: none at first, then r = min(r, largest move) / 2 after a round whose model ends more than
+        ``TRUST_SHRINK_GAP`` of a limit off and not half as far off as the round before, and 2 r after
+        one within a quarter of that that used more than half of r (``robot_rows``' docstring)."""
         problem = self.problem
         h = np.asarray(start, dtype=float)
         states = None
@@ -309,6 +320,7 @@ class TimingNLP:
             # the start, the first round would shrink every duration towards 0 (and the next start from there)
             certificates, _ = self._certify([], coefficients, h, everywhere=True)
         frozen = self._freeze(coefficients, h)
+        radius, gap = np.inf, np.inf  # the trust region in position, none until the model fails to settle
         iterations, status, rounds = 0, "not solved", 0
         previous: tuple[_Program, dict] | None = None
         while rounds < MAX_ROUNDS:
@@ -320,6 +332,8 @@ class TimingNLP:
             elif previous is not None:  # certificates added
                 initial = previous[0].carried(previous[1], program, initial["x0"])
             model = np.zeros(0) if frozen is None else parameters(frozen).ravel(order="F")
+            if frozen is not None and self.trusted:
+                model = np.concatenate((model, frozen.q.ravel(), [1 / radius]))
             with stderr_captured():  # CasADi's own warnings (an interrupted solve) stay off the terminal
                 solution = program.solver(**initial, lbx=program.lbx, ubx=program.ubx, lbg=program.lbg,
                                           ubg=program.ubg, p=model)
@@ -347,8 +361,14 @@ class TimingNLP:
             if frozen is not None:  # the robot model was frozen at the previous round's trajectory
                 assert self.robot is not None
                 samples = spline_states(coefficients, h, *self._robot_points())
-                gap = model_error(self.robot, frozen, *samples)
-                log.debug("round %d: the robot model is off by %.3g of a limit", rounds, gap)
+                gap, before = model_error(self.robot, frozen, *samples), gap
+                moved = float(np.abs(samples[0] - frozen.q).max())
+                log.debug("round %d: the robot model is off by %.3g of a limit, the positions moved %.3g rad",
+                          rounds, gap, moved)
+                if self.trusted and gap > TRUST_SHRINK_GAP and gap > before / 2:
+                    radius = min(radius, moved) / 2
+                elif gap <= TRUST_SHRINK_GAP / 4 and moved > radius / 2:  # the gap grows like the move squared
+                    radius *= 2
                 settled = gap <= MODEL_TOLERANCE
                 frozen = freeze(self.robot, *samples)
             if problem.evaluate_durations(h[None], batch_states).feasible[0]:
@@ -665,14 +685,24 @@ class _Program:
             function = point_rows(ca, nlp.robot, joints)
             low, high = row_bounds(nlp.robot, joints)
             counts = [len(block.segments) * SAMPLES_PER_SEGMENT for block in spline.blocks]
-            model = ca.MX.sym("robot_model", function.size1_in(3) * sum(counts))
-            numbers = ca.reshape(model, function.size1_in(3), sum(counts))
+            numbers = ca.MX.sym("robot_model", function.size1_in(3) * sum(counts))
+            model = numbers
+            numbers = ca.reshape(numbers, function.size1_in(3), sum(counts))
+            if nlp.trusted:  # the positions at the samples stay within a radius of those frozen at (its
+                # inverse a parameter: 0 where there is no such region yet)
+                anchor, reach = ca.MX.sym("anchor", joints * sum(counts)), ca.MX.sym("inverse_radius")
+                model = ca.vertcat(model, anchor, reach)
+                anchor = ca.reshape(anchor, joints, sum(counts))
             offset = 0
             for block, count in zip(spline.blocks, counts):
                 states = _sampled_states(ca, block, h)
                 rows.append(ca.vec(function.map(count)(*states, numbers[:, offset:offset + count])))
                 lower.append(np.tile(low, count))
                 upper.append(np.tile(high, count))
+                if nlp.trusted:
+                    rows.append(ca.vec(states[0] - anchor[:, offset:offset + count]) * reach)
+                    lower.append(np.full(joints * count, -1.0))
+                    upper.append(np.full(joints * count, 1.0))
                 offset += count
         self.robot_rows = np.arange(row_count, sum(len(bound) for bound in lower))
         certificate_variables = ca.vertcat(*extra) if extra else ca.MX.zeros(0, 1)
