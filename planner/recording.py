@@ -57,7 +57,7 @@ from .errors import InputError, RecordingError, ViewerError, shown
 from .kinematics import continuity_breaks, kinematic_figures, via_point_misses
 from .limits import DEGREE_UNITS, PROFILE_QUANTITIES, QUANTITIES, JointLimits
 from .outputs import not_utf8, utf8_path
-from .splines import PiecewisePolynomial
+from .splines import MAX_SAMPLES, PiecewisePolynomial
 from .validate import CONTROL_CHARACTERS
 
 APPLICATION_ID = "planner"
@@ -728,7 +728,9 @@ def _seconds(ns) -> str:
 
 
 def _is_number(value) -> TypeGuard[int | float]:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
+    """A JSON number a float holds: JSON's integers have no bound (10**400 parses), floats do."""
+    return isinstance(value, float) or (isinstance(value, int) and not isinstance(value, bool)
+                                        and abs(value) <= sys.float_info.max)
 
 
 def _is_count(value) -> TypeGuard[int]:
@@ -754,6 +756,16 @@ def _numbers(where: str, data: dict, key: str, count: int | None = None, *, infi
     return array
 
 
+def _writable_name(name: str) -> bool:
+    """A joint name the exports can write: not empty, no control character, and text UTF-8 encodes (JSON's
+    escapes can spell a lone surrogate such as \\udcff, which is no character)."""
+    try:
+        name.encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return bool(name) and not CONTROL_CHARACTERS.search(name)
+
+
 #: The most coefficients per polynomial a recording may hold: the planner's families have 4 to 8.
 _MAX_COEFFICIENTS = 16
 
@@ -767,10 +779,10 @@ def _definition(path: Path, text: str) -> tuple[list[str], PiecewisePolynomial, 
         raise RecordingError(f"{where}: format {shown(data.get('format'))}, expected {FORMAT!r} "
                              "(not a planner recording, or one from another planner version)")
     names = data.get("joint_names")
-    if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names) \
-            or len(set(names)) < len(names) or any(CONTROL_CHARACTERS.search(name) for name in names):
-        raise RecordingError(f"{where}: joint_names must be a non-empty list of distinct texts without control "
-                             f"characters, got {shown(names)}")
+    if not isinstance(names, list) or not names or not all(isinstance(n, str) and _writable_name(n) for n in names) \
+            or len(set(names)) < len(names):
+        raise RecordingError(f"{where}: joint_names must be a non-empty list of distinct texts, each non-empty, of "
+                             f"Unicode characters and without control characters, got {shown(names)}")
     durations = _numbers(where, data, "durations_s")
     shape = data.get("coefficients_shape")
     if not (isinstance(shape, list) and len(shape) == 3 and all(_is_count(n) for n in shape)
@@ -808,8 +820,9 @@ def _end(path: Path, text: str, total_time: float) -> tuple[int, float, tuple[fl
     where = f"{path}: trajectory/end"
     data = _json_object(where, text)
     count = data.get("sample_count")
-    if not _is_count(count) or count < 1:
-        raise RecordingError(f"{where}: sample_count must be a positive integer, got {shown(count)}")
+    if not _is_count(count) or not 1 <= count <= MAX_SAMPLES:
+        raise RecordingError(f"{where}: sample_count must be a whole number from 1 to {MAX_SAMPLES:,}, got "
+                             f"{shown(count)}")
     rate = data.get("sample_rate_hz")
     if not _is_number(rate) or not math.isfinite(rate) or rate <= 0:
         raise RecordingError(f"{where}: sample_rate_hz must be a finite number > 0, got {shown(rate)}")

@@ -132,7 +132,8 @@ def test_a_recording_sampled_at_one_hertz_or_less_reads_back(tmp_path, rate_hz):
 
 @pytest.mark.parametrize("end, message", [
     ({"sample_rate_hz": 0.0}, r"trajectory/end: sample_rate_hz must be a finite number > 0, got 0\.0$"),
-    ({"sample_count": "201"}, r"trajectory/end: sample_count must be a positive integer, got '201'$"),
+    ({"sample_count": "201"}, r"trajectory/end: sample_count must be a whole number from 1 to 1,000,000, got '201'$"),
+    ({"sample_count": 0}, r"trajectory/end: sample_count must be a whole number from 1 to 1,000,000, got 0$"),
     ({"time_span_s": [0.0, 4.0, 7.0]}, r"trajectory/end: time_span_s must hold 2 numbers, got 3$"),
     ({"time_span_s": "0 to 4"}, r"trajectory/end: time_span_s must be a list of numbers, got '0 to 4'$"),
 ])
