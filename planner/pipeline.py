@@ -584,11 +584,12 @@ def _check_configuration(q: np.ndarray | None, key: str, robot: Robot) -> None:
                                         f"({side} limit {limit})")
 
 
-def _outside_bounds(problem: TimingProblem, result: OptimizationResult,
-                    worst: Violation | None) -> InfeasibleError:
+def _outside_bounds(problem: TimingProblem, result: OptimizationResult, worst: Violation | None,
+                    stopped: str = "") -> InfeasibleError:
     """The error for a best timing outside ``optimizer.bounds_s`` (some duration is outside them): it
     names the segment furthest outside, the bound, and the limit that binds there (its largest ratio),
-    and ``worst``, a limit the timing still breaks (a position range), if any."""
+    and ``worst``, a limit the timing still breaks (a position range), if any; ``stopped`` says that the
+    time limit ended the search, where it did."""
     assert problem.bounds is not None
     low, high = problem.bounds
     h = result.durations
@@ -597,11 +598,24 @@ def _outside_bounds(problem: TimingProblem, result: OptimizationResult,
     d, j = (int(i) for i in np.unravel_index(int(np.argmax(result.ratios)), result.ratios.shape))
     quantity, limit = QUANTITIES[d], float(problem.limits.magnitudes[d, j])
     also = "" if worst is None else f", and in that timing {worst}"
-    return InfeasibleError(f"no feasible timing found by {result.algorithm} within optimizer.bounds_s = [{low:g}, "
-                           f"{high:g}] s: meeting the limits takes segment {k} {h[k]:.4g} s, {side} = {bound:g} s, "
+    duration, shown_bound = numbers_apart(float(h[k]), bound)
+    return InfeasibleError(f"no feasible timing found by {result.algorithm}{stopped} within optimizer.bounds_s = "
+                           f"[{low:g}, {high:g}] s: meeting the limits takes segment {k} {duration} s, {side} = "
+                           f"{shown_bound} s, "
                            f"with joint {problem.limits.names[j]}'s {quantity} at its limit "
-                           f"{in_degrees(limit, d + 1)}{also}; widen the bounds or raise that limit", joint=j,
+                           f"{in_degrees(limit, d + 1)}{also}; widen the bounds or raise that limit"
+                           + _fixed_states_hint(problem, result), joint=j,
                            quantity=quantity, value=float(result.ratios[d, j]) * limit, limit=limit)
+
+
+def _fixed_states_hint(problem: TimingProblem, result: OptimizationResult) -> str:
+    """For a family whose via-point states are free but were not optimized (a search without the NLP keeps
+    its fixed rule: ``de``, ``pso``, ``slsqp``, ``cuckoo-paper``), that the NLP's algorithms would choose them
+    (hermite7 within bounds of [0.5, 2] s: ``de`` found nothing, ``nlp`` a timing of 5.59 s); else ''."""
+    if not problem.family.free_states or result.starts:  # the NLP ran (its starts), and chose them
+        return ""
+    return (f" (with {result.algorithm}, {problem.family.name}'s via-point velocities, accelerations and jerks "
+            f"follow its fixed rule; the default, nlp and cuckoo algorithms choose them too)")
 
 
 #: How near its range bound [rad] an interior via-point makes the hint of a range left name it (0.05 deg):
@@ -753,14 +767,16 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
                       f"({result.wall_time_s:.2f} s)")
         if not result.feasible or found:
             worst = max(found, key=lambda violation: violation.ratio, default=None)
+            stopped = (f" before the time limit of {settings['time_limit']:g} s (optimizer.time_limit_s) stopped "
+                       f"it (raise or remove that limit)" if result.out_of_time else "")
             if problem.bounds is not None and not (
                     problem.bounds[0] * (1 - 1e-12) <= result.durations.min()
                     and result.durations.max() <= problem.bounds[1] * (1 + 1e-12)):
-                raise _outside_bounds(problem, result, worst)  # whatever else it breaks, it breaks the bounds
+                raise _outside_bounds(problem, result, worst, stopped)  # whatever else it breaks, it breaks the bounds
             reasons = ([f"largest constraint ratio {result.max_ratio:.12g} (limit 1)"]
                        if ratio_exceeded(result.max_ratio) or worst is None else []) + \
                 ([str(worst)] if worst else [])  # a position alone leaves the ratio at 1: no word of it then
-            raise InfeasibleError(f"no feasible timing found by {result.algorithm}; in its best timing, "
+            raise InfeasibleError(f"no feasible timing found by {result.algorithm}{stopped}; in its best timing, "
                                   f"{'; '.join(reasons)}"
                                   + _on_bound_hint(problem, found), violation=worst)
         return trajectory, (problem, result)

@@ -1,3 +1,4 @@
+import dataclasses
 import json
 from pathlib import Path
 
@@ -610,6 +611,60 @@ def test_a_best_timing_outside_the_bounds_is_refused_for_the_bounds_first_and_he
                                               r"that timing joint joint2 position -20.\d+ deg is below its lower limit "
                                               r"-20 deg; widen the bounds or raise that limit$"):
         plan(task)
+
+
+SWEEP21_VIA_DEG = [[0, 0, 0], [40, -20, 10], [45, 30, -30], [90, 10, 0], [20, 20, 20]]
+SWEEP21_LIMITS = {"velocity_deg_s": [60, 80, 100], "acceleration_deg_s2": [120, 100, 200],
+                  "jerk_deg_s3": [600, 500, 900]}
+
+
+@pytest.mark.parametrize("h_max", [2.001, 2.0])
+def test_hermite7_on_h_max_is_kept_within_it(h_max):
+    """hermite7's NLP put the last segment on h_max, and the repair, scaling every duration by the 2e-7
+    its cut rounds left the limits exceeded, took it past: the task was refused ("takes segment 3
+    2.001 s, above h_max = 2.001 s"), though timings within the bounds meet the limits (sweep 21)."""
+    result = plan(planner.make_task(joints_deg=SWEEP21_VIA_DEG, limits=SWEEP21_LIMITS,
+                                    trajectory={"family": "hermite7"},
+                                    optimizer={"algorithm": "nlp", "bounds_s": [0.5, h_max]}))
+    assert result.trajectory.durations.max() == pytest.approx(h_max, rel=1e-5)  # on it, not past it
+    assert_plan_holds(result)
+
+
+def test_hermite7_time_jerk_whose_ray_optimum_is_past_h_max_stops_on_it():
+    """With time-jerk, the repair of the NLP's solution scaled it to the jerk-weighted optimum along its ray,
+    4.6 s for the last segment where h_max is 2 s, and the task was refused as if the limits took that long
+    (sweep 21). The objective along the ray is convex: within the bounds its best is on h_max."""
+    result = plan(planner.make_task(joints_deg=SWEEP21_VIA_DEG, limits=SWEEP21_LIMITS,
+                                    trajectory={"family": "hermite7"},
+                                    optimizer={"algorithm": "nlp", "bounds_s": [0.5, 2.0], "objective": "time-jerk",
+                                               "weights": [1, 10]}))
+    assert result.trajectory.durations.max() == pytest.approx(2.0, rel=1e-9)
+    assert_plan_holds(result)
+
+
+def test_hermite7_without_the_nlp_names_its_fixed_via_point_states_where_the_bounds_refuse_it():
+    """de keeps hermite7's via-point states on the family's fixed rule and finds no timing within [0.5, 2] s;
+    the nlp algorithm, choosing them, plans the same task (sweep 21): the refusal says so."""
+    task = planner.make_task(joints_deg=SWEEP21_VIA_DEG, limits=SWEEP21_LIMITS, trajectory={"family": "hermite7"},
+                             optimizer={"algorithm": "de", "bounds_s": [0.5, 2.0]})
+    with pytest.raises(InfeasibleError, match=r"widen the bounds or raise that limit \(with de, hermite7's via-point "
+                                              r"velocities, accelerations and jerks follow its fixed rule; the "
+                                              r"default, nlp and cuckoo algorithms choose them too\)$"):
+        plan(task)
+    assert_plan_holds(plan(dataclasses.replace(task, optimizer={**task.optimizer, "algorithm": "nlp"})))
+
+
+def test_a_search_the_time_limit_stops_before_a_feasible_timing_says_so():
+    """quintic within position ranges: a start scaled to meet the limits can leave a range, and a search the
+    time limit stops there was refused as if the task were infeasible, the time limit unnamed (sweep 21)."""
+    task = planner.make_task(joints_deg=[*SWEEP21_VIA_DEG, [-50, -50, 80], [99, 59, -89]],
+                             limits={**SWEEP21_LIMITS, "position_deg": [[-100, 100], [-60, 60], [-90, 90]]},
+                             trajectory={"family": "quintic"}, optimizer={"time_limit_s": 1e-9})
+    with pytest.raises(InfeasibleError, match=r"^no feasible timing found by default before the time limit of 1e-09 s "
+                                              r"\(optimizer.time_limit_s\) stopped it \(raise or remove that limit\); "
+                                              r"in its best timing, joint joint\d position"):
+        plan(task)
+    assert_plan_holds(plan(dataclasses.replace(task, optimizer={**task.optimizer, "time_limit": 120.0})))
 
 
 def test_a_population_too_large_for_the_task_is_a_task_error_naming_the_key():

@@ -110,6 +110,10 @@ MAX_ROUNDS = 12
 #: The robot model's trust region in position (``TimingNLP.solve``): a round whose model ends this far
 #: off the truth (a fraction of a limit), and not half as far as the round before, halves the region.
 TRUST_SHRINK_GAP = 5e-2
+#: A family with free via-point states is held this fraction below h_max in the NLP: its limits are cut, the
+#: last round leaves them exceeded by about 1e-7 of themselves, and the repair (``evaluate_states``) scales
+#: every duration up by that much, which took a segment on h_max past it (by 1.7e-7 to 4.8e-7: refused).
+FREE_STATES_H_MAX_MARGIN = 2e-6
 #: Extremes inside a segment beyond (1 - FLAG_MARGIN) of their bound get a certificate.
 FLAG_MARGIN = 0.05
 #: Where the first round cuts a quantity with no extreme inside a segment (normalised time): both sides.
@@ -710,8 +714,10 @@ class _Program:
         if problem.uses_jerk_energy:
             k_t, k_j = problem.weights
             objective = objective + (k_j / k_t) * _jerk_energy(ca, spline.blocks, h)
-        h_high = problem.bounds[1] / scales.time if problem.bounds is not None else np.inf
+        margin = FREE_STATES_H_MAX_MARGIN if problem.family.free_states else 0.0
+        h_high = problem.bounds[1] * (1 - margin) / scales.time if problem.bounds is not None else np.inf
         h_low = max(problem.duration_floor / scales.time, 0.0 if problem.bounds is not None else DURATION_FLOOR)
+        h_high = max(h_high, h_low)  # (the margin below h_max, where h_min is h_max)
         size = certificate_variables.shape[0]
         with np.errstate(divide="ignore"):
             log_low, log_high = np.log(h_low), np.log(h_high)  # -inf, +inf where absent

@@ -336,10 +336,17 @@ class TimingProblem:
 
     def _repair_scale(self, scale: np.ndarray, energy: np.ndarray, h: np.ndarray) -> np.ndarray:
         """The repair's factor (B,): the time-scale factor, for ``time-jerk`` no less than the ray's
-        optimum s_opt = (5 K_j E / (K_t T))^(1/6); 1 where nothing is limited."""
+        optimum s_opt = (5 K_j E / (K_t T))^(1/6); 1 where nothing is limited. With duration bounds, s_opt
+        is taken no further than puts the longest segment on h_max: the objective along the ray,
+        K_t T s + K_j E / s^5, is convex in s, so within the bounds its best is there (the limits
+        permitting); beyond, the repair took a segment past h_max (hermite7's NLP solution to 2.3 times
+        it, and the task was refused as if its limits took that long)."""
         if self.uses_jerk_energy:
             k_t, k_j = self.weights
-            scale = np.maximum(scale, np.cbrt(np.sqrt(5.0 * k_j * energy / (k_t * h.sum(axis=1)))))
+            optimum = np.cbrt(np.sqrt(5.0 * k_j * energy / (k_t * h.sum(axis=1))))
+            if self.bounds is not None:
+                optimum = np.minimum(optimum, self.bounds[1] / h.max(axis=1))
+            scale = np.maximum(scale, optimum)
         return np.where(scale > 0, scale, 1.0)
 
     def _raise_to_floor(self, h: np.ndarray) -> Evaluation:
