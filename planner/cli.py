@@ -22,7 +22,7 @@ from contextlib import ExitStack
 from pathlib import Path
 
 from . import interrupts
-from .errors import OutputError, PlannerError, one_line
+from .errors import OutputError, PlannerError, one_line, shown
 from .progress import TerminalProgress
 
 
@@ -36,20 +36,25 @@ def _interrupt(signum, frame):
 
 
 def _plan(args) -> int:
-    from .outputs import output_folder
+    from .outputs import absolute_path, output_folder
     from .pipeline import OUTPUT_FILES, output_writers, plan
     from .task import load_task
     progress = TerminalProgress("optimizing", quiet=args.quiet)
     task = load_task(args.task)  # a missing or malformed task is named before the output folder's state
     if args.out is None:  # beside other tasks' outputs and the reproduction's (out/reproduce), not over them
-        args.out = str(Path("out") / Path(args.task).stem)
+        stem = Path(args.task).stem
+        if stem in ("", ".", ".."):  # out/.. is the current folder, out/. every task's
+            raise OutputError(f"the task file's name {shown(Path(args.task).name)} names no output folder "
+                              f"(out/{stem}): give one with --out")
+        args.out = str(Path("out") / stem)
     # The writers first: forked before the output folder is locked, they do not hold its lock.
     with output_writers() as writers, output_folder(args.out, force=args.force, files=OUTPUT_FILES) as staging:
         result = plan(task, progress=progress)
         progress.note(f"writing the outputs to {_printable(str(args.out))}")
         result.write(staging, writers=writers)
     interrupts.finish()  # published: a signal from now on changes nothing
-    out = Path(args.out)
+    folder = absolute_path(args.out, "output folder")  # (``..`` as the writer took it)
+    out = Path(args.out) if Path(args.out).is_dir() else folder  # nope/../x: the system reaches no x by it
     if not args.quiet:
         timing = ", ".join(f"{k} {v:.3f} s" for k, v in result.timings_s.items())
         print(f"{result.task.name}: {result.task.family}, total time {result.trajectory.total_time:.4f} s, "
@@ -58,21 +63,21 @@ def _plan(args) -> int:
                  else ""))
         print(f"timings: {timing}")
         print(f"outputs in {_printable(str(out))}/: "
-              + ", ".join(sorted(p.name for p in out.iterdir() if not p.name.startswith("."))))
+              + ", ".join(sorted(p.name for p in folder.iterdir() if not p.name.startswith("."))))
         print(f"open the recording with: {_command()} replay {_printable(str(out / 'trajectory.rrd'))}  "
               f"(check it without a viewer: add --check)")
     return 0
 
 
 def _reproduce(args) -> int:
-    from .outputs import output_folder
+    from .outputs import absolute_path, output_folder
     from .reproduce import REPORT_FILES, run_all, write_report
     progress = TerminalProgress("reproduce", quiet=args.quiet)
     with output_folder(args.out, force=args.force, files=REPORT_FILES) as staging:
         runs = run_all(quick=args.quick, seed=args.seed, progress=progress)
         write_report(runs, staging)
     interrupts.finish()
-    out = Path(args.out)
+    out = Path(args.out) if Path(args.out).is_dir() else absolute_path(args.out, "output folder")  # (as in plan)
     if not args.quiet:
         print((out / "reproduction.md").read_text())
         print(f"written: {out}/reproduction.md, reproduction.json, figure4.png")

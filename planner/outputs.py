@@ -66,7 +66,9 @@ _AT_FDCWD = -100
 
 
 def absolute_path(path, what: str) -> Path:
-    """``path`` as an absolute path with symbolic links resolved; an empty path is refused.
+    """``path`` as an absolute path with symbolic links resolved, as the system resolves it: a ``..`` after a
+    symbolic link leaves the link's target, not the link's folder (``os.path.abspath`` first, which drops
+    ``link/..`` as text, wrote where the system's ``link/../x`` does not lead); an empty path is refused.
 
     Raises:
         OutputError: an empty path, one that is not text or a path-like, holds a NUL or bytes that are not
@@ -82,7 +84,7 @@ def absolute_path(path, what: str) -> Path:
     if "\0" in text:
         raise OutputError(f"{what} {shown(text)} holds a NUL character")
     try:
-        absolute = Path(os.path.abspath(text)).resolve()
+        absolute = Path(text).absolute().resolve()
     except (OSError, RuntimeError) as exc:  # a symlink loop, a name too long
         raise OutputError(f"{what} {shown(text)}: {getattr(exc, 'strerror', None) or exc}") from None
     if not utf8_path(absolute):

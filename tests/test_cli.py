@@ -311,3 +311,40 @@ def test_a_run_the_time_limit_stopped_says_so_in_its_progress_and_result_lines(t
     assert "feasible True (stopped by the time limit: the best timing found by then)" in text
     assert main(["plan", str(small_task(tmp_path)), "--out", str(out), "--force"]) == 0
     assert "time limit" not in capsys.readouterr().out
+
+
+def test_an_output_path_through_a_missing_folder_and_dot_dot_is_where_the_outputs_are_listed(tmp_path, capsys,
+                                                                                             monkeypatch):
+    """``--out nope/../res`` (no folder nope): the outputs were written to ./res, then listing them through
+    the given text failed ("internal error: FileNotFoundError", exit 1) (sweep 21). Now they are listed
+    there and the replay command printed names the folder the system reaches."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["plan", str(small_task(tmp_path)), "--out", "nope/../res"]) == 0
+    printed = capsys.readouterr().out
+    assert (tmp_path / "res" / "summary.json").is_file() and not (tmp_path / "nope").exists()
+    assert f"outputs in {tmp_path / 'res'}/: coefficients.json" in printed
+    assert f"replay {tmp_path / 'res' / 'trajectory.rrd'}" in printed
+
+
+def test_an_output_path_through_a_symbolic_link_and_dot_dot_goes_where_the_system_goes(tmp_path, capsys,
+                                                                                       monkeypatch):
+    """``link/../res`` with link -> far/sub is far/res to the system; the planner wrote ./res (``..`` taken as
+    text before the link was followed) and then could not list it (sweep 21)."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "far" / "sub").mkdir(parents=True)
+    (tmp_path / "link").symlink_to(tmp_path / "far" / "sub")
+    assert main(["plan", str(small_task(tmp_path)), "--out", "link/../res"]) == 0
+    assert (tmp_path / "far" / "res" / "summary.json").is_file() and not (tmp_path / "res").exists()
+    assert "outputs in link/../res/: coefficients.json" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("name", ["...yaml", "..yaml"])
+def test_a_task_file_whose_name_makes_no_output_folder_is_refused(tmp_path, capsys, monkeypatch, name):
+    """The default folder out/TASK of a task file named ``...yaml`` was out/.., the current folder (and
+    ``..yaml`` out/. , every task's): outputs landed beside the user's files (sweep 21)."""
+    monkeypatch.chdir(tmp_path)
+    task = small_task(tmp_path).rename(tmp_path / name)
+    assert main(["plan", str(task)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: the task file's name '{name}' names no output folder") and err.count("\n") == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == [name]
