@@ -544,8 +544,10 @@ def test_the_outputs_carry_the_torques(puma, tmp_path):
 
 def test_a_retiming_that_leaves_a_joint_range_is_not_kept():
     """UR5, ranges 1 deg beyond the via-points, a 0.25 m/s tool cap: the NLP's re-timing reshapes the
-    spline between via-points; where that leaves a range, the plan keeps the uniform slow-down, and
-    every position, by dense sampling, stays in range (it once returned 4 joints outside, exit 0)."""
+    spline between via-points; where that leaves a range, the plan times once more within that range
+    narrowed (``_narrower_ranges``) and keeps that if it stays inside, else the uniform slow-down: never
+    slower than it, and every position, by dense sampling, stays in range (it once returned 4 joints
+    outside, exit 0)."""
     via = np.array([[0, -90, 90, 0, 90, 0], [60, -45, 45, -30, 60, 90], [120, -100, 120, 20, 90, -60],
                     [30, -60, 60, 10, 80, 20]], float)
     low, high = via.min(axis=0) - 1, via.max(axis=0) + 1
@@ -554,7 +556,8 @@ def test_a_retiming_that_leaves_a_joint_range_is_not_kept():
                    "waypoints": {"joints_deg": via.tolist()},
                    "limits": {**UR5_FAST, "tool_speed_m_s": 0.25, "position_deg": ranges},
                    "trajectory": {"family": "hybrid"}})
-    assert result.feasible
+    assert result.feasible and result.robot_limits.uniform_total_s is not None  # a re-timing kept: the narrowed one
+    assert result.trajectory.total_time < result.robot_limits.uniform_total_s
     q = np.rad2deg(result.trajectory.evaluate(np.linspace(0, result.trajectory.total_time, 100001)))
     assert np.all(q >= low - 1e-6) and np.all(q <= high + 1e-6)
 
