@@ -549,7 +549,7 @@ def parse_task(data, *, name: str = "task", source: str | os.PathLike | None = N
     if robot is None and not any(k in limits for k in ("velocity", "acceleration", "jerk")):
         raise TaskError("limits", "a joint-space task without a robot needs velocity_deg_s, "
                                   "acceleration_deg_s2 or jerk_deg_s3")
-    if joints is not None:
+    if joints is not None and robot is None:  # a robot's joint count decides (``pipeline.robot_limits``)
         _check_joint_counts(joints.shape[1], limits)
     family, rate, min_segment = _trajectory(document.get("trajectory"), "trajectory")
     optimizer = _optimizer(document.get("optimizer"), "optimizer")
