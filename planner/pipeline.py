@@ -583,6 +583,22 @@ def robot_limits(robot: Robot, task: Task) -> JointLimits:
     return limits
 
 
+def _beyond_the_robot(robot: Robot, limits: JointLimits) -> list[str]:
+    """Where ``limits`` (the robot's with the task's overrides) allow more than the robot's own (its URDF's
+    range and velocity, and its limits file's): a joint planned there may be beyond what the arm does, so the
+    plan says so (the UR5's shoulder was planned to 500 deg, its URDF's range +-360 deg, without a word).
+    Not the URDF's placeholders (a velocity of 0, a range of [0, 0]), which the task must replace."""
+    own, said = robot.limits, []
+    for j, name in enumerate(limits.names):
+        if name not in robot.placeholder_range and (limits.lower[j] < own.lower[j] or limits.upper[j] > own.upper[j]):
+            said.append(f"joint {name} range [{in_degrees(limits.lower[j], 0)}, {in_degrees(limits.upper[j], 0)}] "
+                        f"(URDF [{in_degrees(own.lower[j], 0)}, {in_degrees(own.upper[j], 0)}])")
+        if name not in robot.placeholder_velocity and limits.velocity[j] > own.velocity[j]:
+            said.append(f"joint {name} velocity {in_degrees(limits.velocity[j], 1)} (URDF "
+                        f"{in_degrees(own.velocity[j], 1)})")
+    return said
+
+
 def as_task(task) -> Task:
     """A ``Task`` from a ``Task``, a task file's path (str or path-like), or a mapping of the task
     file's schema (``parse_task``: relative URDF paths are then taken from the working directory).
@@ -724,6 +740,10 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
                           f"(nothing is drawn for {'them' if count > 1 else 'it'}): "
                           f"{', '.join(robot.missing_meshes[:3])}{', ...' * (count > 3)}")
         limits = robot_limits(robot, task)
+        widened = _beyond_the_robot(robot, limits)
+        if widened:
+            progress.note(f"the task's limits go beyond those of robot {robot.name!r} (its URDF's): "
+                          f"{'; '.join(widened[:3])}{'; ...' * (len(widened) > 3)}; the plan keeps to the task's")
         robot = replace(robot, limits=limits)  # IK searches the very ranges the timing enforces
         if task.robot_limits.torque is not None:  # checked now, not after IK and the timing runs
             torque = torque_limits(robot, task.robot_limits.torque)

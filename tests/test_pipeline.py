@@ -794,3 +794,27 @@ def test_a_plan_result_with_a_tool_path_refuses_another_trajectory():
     with pytest.raises(InputError, match="tool path and robot-limit figures were measured on the trajectory planned"):
         dataclasses.replace(result, trajectory=slower)
     assert dataclasses.replace(result, timings_s={}).figures.max_abs.tolist() == result.figures.max_abs.tolist()
+
+
+def test_task_limits_beyond_the_robots_own_are_said():
+    """The task's limits override the robot's, and may widen them: the UR5's shoulder was planned to 500 deg
+    (its URDF's range +-360 deg) at 1000 deg/s without a word (sweep 21). The plan now says so, naming the
+    joint, the task's limit and the URDF's; narrower overrides, and the bundled tasks, say nothing."""
+    from planner.progress import TerminalProgress
+
+    def notes_of(limits: dict) -> list[str]:
+        notes: list[str] = []
+        progress = TerminalProgress("t", quiet=True)
+        progress.note = notes.append
+        plan({"version": 1, "robot": {"name": "ur5", "tool_frame": "tool0"},
+              "waypoints": {"joints_deg": [[0, -90, 90, 0, 90, 0], [40, -60, 60, 10, 80, 20]]},
+              "limits": {**UR5_FAST, **limits}}, progress=progress)
+        return [note for note in notes if note.startswith("the task's limits go beyond")]
+
+    ranges = [[-500, 500]] + [[-180, 180]] * 5
+    said = notes_of({"position_deg": ranges, "velocity_deg_s": [1000, 90, 90, 90, 90, 90]})
+    assert len(said) == 1 and said[0] == ("the task's limits go beyond those of robot 'ur5' (its URDF's): joint "
+                                          "shoulder_pan_joint range [-500 deg, 500 deg] (URDF [-360 deg, 360 deg]); "
+                                          "joint shoulder_pan_joint velocity 1000 deg/s (URDF 180.482 deg/s); the "
+                                          "plan keeps to the task's")
+    assert notes_of({"position_deg": [[-100, 100]] * 6, "velocity_deg_s": [90] * 6}) == []

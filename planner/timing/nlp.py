@@ -279,7 +279,7 @@ class TimingNLP:
     def __init__(self, problem: TimingProblem, reference: np.ndarray, robot: RobotConstraints | None = None):
         self.problem = problem
         self.robot = robot if robot is not None and robot.supported else None
-        #: the robot rows come with a trust region in position (``TRUST_RADIUS``): a family with free
+        #: whether the robot rows come with a trust region in position (``solve``): a family with free
         #: via-point states, whose positions at the samples those states move
         self.trusted = self.robot is not None and problem.family.free_states
         family = problem.family
@@ -371,7 +371,8 @@ class TimingNLP:
                           rounds, gap, moved)
                 if self.trusted and gap > TRUST_SHRINK_GAP and gap > before / 2:
                     radius = min(radius, moved) / 2
-                elif gap <= TRUST_SHRINK_GAP / 4 and moved > radius / 2:  # the gap grows like the move squared
+                elif self.trusted and gap <= TRUST_SHRINK_GAP / 4 and moved > radius / 2:  # (the gap grows like
+                    # the move squared)
                     radius *= 2
                 settled = gap <= MODEL_TOLERANCE
                 frozen = freeze(self.robot, *samples)
@@ -689,14 +690,13 @@ class _Program:
             function = point_rows(ca, nlp.robot, joints)
             low, high = row_bounds(nlp.robot, joints)
             counts = [len(block.segments) * SAMPLES_PER_SEGMENT for block in spline.blocks]
-            numbers = ca.MX.sym("robot_model", function.size1_in(3) * sum(counts))
-            model = numbers
-            numbers = ca.reshape(numbers, function.size1_in(3), sum(counts))
+            model = ca.MX.sym("robot_model", function.size1_in(3) * sum(counts))
+            numbers = ca.reshape(model, function.size1_in(3), sum(counts))
             if nlp.trusted:  # the positions at the samples stay within a radius of those frozen at (its
                 # inverse a parameter: 0 where there is no such region yet)
-                anchor, reach = ca.MX.sym("anchor", joints * sum(counts)), ca.MX.sym("inverse_radius")
-                model = ca.vertcat(model, anchor, reach)
-                anchor = ca.reshape(anchor, joints, sum(counts))
+                frozen_at, reach = ca.MX.sym("anchor", joints * sum(counts)), ca.MX.sym("inverse_radius")
+                model = ca.vertcat(model, frozen_at, reach)
+                anchor = ca.reshape(frozen_at, joints, sum(counts))
             offset = 0
             for block, count in zip(spline.blocks, counts):
                 states = _sampled_states(ca, block, h)
