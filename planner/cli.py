@@ -138,6 +138,10 @@ def _replay(args) -> int:
         if args.screenshot is not None:
             from .screenshot import render_screenshot
             render_screenshot(args.recording, files.enter_context(atomic_file(args.screenshot, force=args.force)), at)
+    for option, written in (("--export-csv", target), ("--screenshot", args.screenshot)):
+        if written is not None:  # published: say where (the command printed nothing on success)
+            print(f"written ({option}): {_printable(str(written))}"
+                  + (f" (the recording at {at:.6g} s)" if option == "--screenshot" else ""))
     if args.screenshot is None and not args.check and target is None:
         open_in_viewer(args.recording, command=_command())
     return 0

@@ -66,7 +66,7 @@ def run_all(*, quick: bool = False, seed: int = 0, families=COMPARED_FAMILIES,
                 paper_settings = paper.CUCKOO_SETTINGS if algorithm.startswith("cuckoo") else {}
                 settings = dict(QUICK_SETTINGS[algorithm]) if quick else dict(paper_settings)
                 if progress:
-                    progress.note(f"{family}, bounds {bounds}, {algorithm}")
+                    progress.note(f"{family}, bounds {_bounds_label(bounds)}, {OPTIMIZER_LABELS[algorithm]}")
                 runs.append(Run(family, bounds, algorithm, optimize(problem, algorithm, seed=seed, **settings)))
     return runs
 

@@ -64,7 +64,8 @@ def test_recording_round_trip_matches_planner_samples(planned):
 def test_replay_check_and_export(planned, tmp_path, capsys):
     result, out = planned
     assert main(["replay", str(out / "trajectory.rrd"), "--check", "--export-csv", str(tmp_path / "x.csv")]) == 0
-    assert "limits hold" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "limits hold" in printed and printed.endswith(f"\nwritten (--export-csv): {tmp_path / 'x.csv'}\n")
     times, values = read_trajectory_csv(tmp_path / "x.csv")
     assert times[-1] == pytest.approx(result.trajectory.total_time)
 

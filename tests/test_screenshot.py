@@ -37,10 +37,11 @@ def test_a_screenshot_shows_the_robot_and_drawn_curves(recording, tmp_path, caps
     out = tmp_path / "shots" / "ur5.png"
     scratch = set(Path(tempfile.gettempdir()).glob("rerun-data-*"))
     code = main(["replay", str(recording), "--screenshot", str(out), "--time", "2"])
-    err = capsys.readouterr().err
+    printed, err = capsys.readouterr()
     if code == 2 and ("no graphics adapter" in err or "no `rerun` program" in err):
         pytest.skip(f"no headless rendering here: {err.strip()}")
     assert code == 0, err
+    assert printed == f"written (--screenshot): {out} (the recording at 2 s)\n"
     assert leftovers(out.parent) == ["ur5.png"]  # written under a temporary name, then renamed
     assert set(Path(tempfile.gettempdir()).glob("rerun-data-*")) <= scratch  # the viewer's scratch folder is gone
     image = np.asarray(Image.open(out).convert("RGB")).astype(int)
