@@ -625,15 +625,27 @@ def task_document(task: Task) -> dict:
         document["trajectory"] = {"family": task.family, "sample_rate_hz": task.sample_rate_hz,
                                   "min_segment_s": task.min_segment_s}
         settings = task.optimizer
-        seeded = {"seed": settings["seed"]} if settings["algorithm"] != "nlp" else {}  # nlp refuses one
+        unknown = sorted(set(settings) - set(_OPTIMIZER_FIELDS), key=str)
+        if unknown:  # a Task changed by hand: its optimizer holds parsed fields, not the task file's keys
+            raise TaskError(f"optimizer.{unknown[0]}", f"is no field of a Task's optimizer (it holds "
+                                                       f"{', '.join(_OPTIMIZER_FIELDS)}; the task file's keys, such "
+                                                       f"as bounds_s, are parsed into these)")
+        # nlp refuses a seed: its parsed default 0 is left out, any other is kept, and refused as in a file
+        seeded = {"seed": settings["seed"]} if settings["algorithm"] != "nlp" or settings["seed"] != 0 else {}
         document["optimizer"] = {"algorithm": settings["algorithm"], **seeded, "time_limit_s": settings["time_limit"],
                                  "objective": settings["objective"], **settings["settings"]} | (
             {"weights": list(settings["weights"])} if settings["objective"] == "time-jerk" else {}) | (
             {"bounds_s": list(settings["bounds"])} if settings["bounds"] is not None else {})
+    except TaskError:  # one named here (an optimizer field no Task holds)
+        raise
     except (TypeError, ValueError, AttributeError, KeyError, IndexError) as exc:
         raise TaskError("", f"the Task holds values no task file could ({type(exc).__name__}: {exc}); "
                             f"build tasks with load_task, parse_task or make_task") from None
     return plain_values(document)
+
+
+#: The fields of a parsed ``Task.optimizer`` (``_optimizer``).
+_OPTIMIZER_FIELDS = ("algorithm", "seed", "bounds", "objective", "weights", "time_limit", "settings")
 
 
 def check_task(task: Task) -> Task:

@@ -1,4 +1,5 @@
 import codecs
+import dataclasses
 import math
 import os
 import re
@@ -664,3 +665,20 @@ def test_a_tasks_source_may_be_any_path_like_and_nothing_else():
     with pytest.raises(TaskError, match=r"a task's source is the path of its file \(text or path-like\) or None, "
                                         r"got 5"):
         parse_task(yaml.safe_load(PAPER_JOINT.read_text()), source=5)
+
+
+def test_a_task_changed_by_hand_gets_the_task_files_errors_for_its_optimizer():
+    """dataclasses.replace can put what no task file holds into a Task's optimizer: the nlp algorithm with a
+    seed (a file is refused; the Task planned, the seed dropped) or a task file's key among the parsed
+    fields (bounds_s beside bounds: ignored without a word) (sweep 21). check_task refuses both, naming
+    the key; the parsed default seed 0 of an nlp task stays allowed."""
+    from planner.task import check_task
+
+    task = parse_task({"version": 1, "waypoints": {"joints_deg": [[0, 0], [40, 10]]},
+                       "limits": {"velocity_deg_s": [60, 60]}, "optimizer": {"algorithm": "nlp"}})
+    assert check_task(task).optimizer["algorithm"] == "nlp"
+    with pytest.raises(TaskError, match=r"^optimizer.seed: the nlp algorithm is deterministic and uses no seed"):
+        check_task(dataclasses.replace(task, optimizer={**task.optimizer, "seed": 5}))
+    with pytest.raises(TaskError, match=r"^optimizer.bounds_s: is no field of a Task's optimizer \(it holds "
+                                        r"algorithm, seed, bounds, objective, weights, time_limit, settings"):
+        check_task(dataclasses.replace(task, optimizer={**task.optimizer, "bounds_s": [5, 3]}))
