@@ -36,7 +36,7 @@ def _interrupt(signum, frame):
 
 
 def _plan(args) -> int:
-    from .outputs import absolute_path, output_folder
+    from .outputs import output_folder
     from .pipeline import OUTPUT_FILES, output_writers, plan
     from .task import load_task
     progress = TerminalProgress("optimizing", quiet=args.quiet)
@@ -53,8 +53,7 @@ def _plan(args) -> int:
         progress.note(f"writing the outputs to {_printable(str(args.out))}")
         result.write(staging, writers=writers)
     interrupts.finish()  # published: a signal from now on changes nothing
-    folder = absolute_path(args.out, "output folder")  # (``..`` as the writer took it)
-    out = Path(args.out) if Path(args.out).is_dir() else folder  # nope/../x: the system reaches no x by it
+    out, folder = _published(args.out)
     if not args.quiet:
         timing = ", ".join(f"{k} {v:.3f} s" for k, v in result.timings_s.items())
         print(f"{result.task.name}: {result.task.family}, total time {result.trajectory.total_time:.4f} s, "
@@ -69,15 +68,23 @@ def _plan(args) -> int:
     return 0
 
 
+def _published(out: str) -> tuple[Path, Path]:
+    """The output folder ``out`` as the printed messages show it (the text given, or the resolved path where the
+    system reaches no folder by the text: nope/../x) and as the writer resolved it (``..`` after a link too)."""
+    from .outputs import absolute_path
+    folder = absolute_path(out, "output folder")
+    return (Path(out) if Path(out).is_dir() else folder), folder
+
+
 def _reproduce(args) -> int:
-    from .outputs import absolute_path, output_folder
+    from .outputs import output_folder
     from .reproduce import REPORT_FILES, run_all, write_report
     progress = TerminalProgress("reproduce", quiet=args.quiet)
     with output_folder(args.out, force=args.force, files=REPORT_FILES) as staging:
         runs = run_all(quick=args.quick, seed=args.seed, progress=progress)
         write_report(runs, staging)
     interrupts.finish()
-    out = Path(args.out) if Path(args.out).is_dir() else absolute_path(args.out, "output folder")  # (as in plan)
+    out, _ = _published(args.out)
     if not args.quiet:
         print((out / "reproduction.md").read_text())
         print(f"written: {out}/reproduction.md, reproduction.json, figure4.png")

@@ -476,10 +476,16 @@ def _narrower_h_max(problem: TimingProblem, factor: float) -> TimingProblem | No
     h_max = problem.bounds[1] / factor
     if h_max < problem.duration_floor:
         return None
+    return _narrower(problem, problem.limits, (problem.bounds[0], h_max))
+
+
+def _narrower(problem: TimingProblem, limits: JointLimits, bounds: tuple[float, float] | None) -> TimingProblem | None:
+    """``problem`` with ``limits`` and duration ``bounds`` (its via-points, family, objective and least duration
+    kept), or None where no timing within them meets the limits (``TimingProblem`` refuses it)."""
     try:
-        return TimingProblem(problem.given_via_points, problem.family, problem.limits,
-                             bounds=(problem.bounds[0], h_max), objective=problem.objective_name,
-                             weights=problem.weights, min_duration=problem.duration_floor)
+        return TimingProblem(problem.given_via_points, problem.family, limits, bounds=bounds,
+                             objective=problem.objective_name, weights=problem.weights,
+                             min_duration=problem.duration_floor)
     except PlannerError:
         return None
 
@@ -507,12 +513,7 @@ def _narrower_ranges(problem: TimingProblem, broken: list[Violation]) -> TimingP
     via = problem.given_via_points
     if np.any(via < lower) or np.any(via > upper):
         return None
-    try:
-        return TimingProblem(via, problem.family, problem.limits.with_overrides(lower=lower, upper=upper),
-                             bounds=problem.bounds, objective=problem.objective_name, weights=problem.weights,
-                             min_duration=problem.duration_floor)
-    except PlannerError:
-        return None
+    return _narrower(problem, problem.limits.with_overrides(lower=lower, upper=upper), problem.bounds)
 
 
 def _tightened(constraints: RobotConstraints, factor: float) -> RobotConstraints:
