@@ -36,6 +36,7 @@ def _interrupt(signum, frame):
 
 
 def _plan(args) -> int:
+    from .limits import seconds_text
     from .outputs import output_folder
     from .pipeline import OUTPUT_FILES, output_writers, plan
     from .task import load_task
@@ -56,7 +57,7 @@ def _plan(args) -> int:
     out, folder = _published(args.out)
     if not args.quiet:
         timing = ", ".join(f"{k} {v:.3f} s" for k, v in result.timings_s.items())
-        print(f"{result.task.name}: {result.task.family}, total time {result.trajectory.total_time:.4f} s, "
+        print(f"{result.task.name}: {result.task.family}, total time {seconds_text(result.trajectory.total_time)} s, "
               f"largest ratio {result.max_ratio:.4f}, feasible {result.feasible}"
               + (" (stopped by the time limit: the best timing found by then)" if result.optimization.out_of_time
                  else ""))
@@ -99,7 +100,7 @@ TIME_END_TOLERANCE = 1e-9
 def _replay(args) -> int:
     from .errors import InputError
     from .export import write_trajectory_csv
-    from .limits import numbers_apart
+    from .limits import numbers_apart, seconds_text
     from .outputs import atomic_file, check_output_file
     from .recording import open_in_viewer, read_recording
     if args.time is not None and args.screenshot is None:
@@ -132,7 +133,7 @@ def _replay(args) -> int:
         skipped = [option for option, given in (("--export-csv", target), ("--screenshot", args.screenshot))
                    if given is not None and not check.passed]
         print(f"{args.recording}: {len(recorded.joint_names)} joints, {len(recorded.times)} samples, "
-              f"T = {recorded.trajectory.total_time:.4f} s, largest ratio {_ratio(check.largest_ratio)}, "
+              f"T = {seconds_text(recorded.trajectory.total_time)} s, largest ratio {_ratio(check.largest_ratio)}, "
               f"samples vs trajectory {check.deviation:.3e} rad (allowed {check.tolerance:.3e}), "
               f"{', '.join(findings) or 'limits hold'}"
               + (f"; {' and '.join(skipped)} not written: the check failed" if skipped else ""))

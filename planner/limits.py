@@ -94,6 +94,12 @@ def numbers_apart(value: float, bound: float) -> tuple[str, str]:
     return said
 
 
+def seconds_text(value: float, decimals: int = 4) -> str:
+    """A duration [s] to ``decimals`` decimals, or to as many significant digits where that would show fewer
+    than two of them (a 9.9e-6 s trajectory read "0.0000 s")."""
+    return f"{value:.{decimals}f}" if value >= 10.0 ** (1 - decimals) else f"{value:.{decimals}g}"
+
+
 def in_degrees_apart(value: float, bound: float, order: int) -> tuple[str, str]:
     """``value`` and the ``bound`` it passes, as ``in_degrees`` but with as many significant digits
     as it takes for the two to read differently (-160.000001 deg against -160 deg, ``numbers_apart``)."""

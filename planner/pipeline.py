@@ -55,6 +55,7 @@ from .limits import (
     in_degrees_apart,
     numbers_apart,
     ratio_exceeded,
+    seconds_text,
 )
 from .outputs import absolute_path, output_folder
 from .progress import TerminalProgress
@@ -97,6 +98,8 @@ class PlanResult:
         robot_limits: how the torque and tool-speed limits were met, where the task gives them.
         measured_on: ``trajectory_digest`` of the trajectory ``path`` and ``robot_limits`` were measured on
             (a result with another trajectory and either of them is refused); "" where not recorded.
+        limits_beyond_robot: where the task's limits allow more than the robot's own (URDF) range or velocity,
+            one record per joint and limit (``summary.json``'s ``robot.limits_beyond_urdf``).
         path: for Cartesian tasks, how the tool follows the straight segments between
             waypoints (``linear`` mode) or strays from them (``joint`` mode).
     """
@@ -114,6 +117,7 @@ class PlanResult:
     branch_kept: str | None = None
     robot_limits: RobotLimitOutcome | None = None
     measured_on: str = ""
+    limits_beyond_robot: tuple[dict, ...] = ()
     figures: KinematicFigures = field(init=False)
 
     def __post_init__(self):
@@ -228,7 +232,8 @@ class PlanResult:
         if self.robot is None:
             return {}
         summary: dict[str, Any] = {"robot": {"name": self.robot.name, "urdf": str(self.robot.urdf_path),
-                             "tool_frame": self.robot.tool_frame, "missing_meshes": list(self.robot.missing_meshes)}}
+                             "tool_frame": self.robot.tool_frame, "missing_meshes": list(self.robot.missing_meshes),
+                                       "limits_beyond_urdf": list(self.limits_beyond_robot)}}
         if self.robot_limits is not None:
             summary["robot_limits"] = self.robot_limits.summary()
             if self.robot_limits.torque_limit is not None:
@@ -311,8 +316,9 @@ class PlanResult:
 
     def _write_figure(self, folder: Path) -> None:
         """profiles.png."""
+        total = seconds_text(self.trajectory.total_time, 3)
         plot_profiles(self.trajectory, self.limits, folder / "profiles.png",
-                      title=f"{self.task.name}: {self.task.family}, T = {self.trajectory.total_time:.3f} s",
+                      title=f"{self.task.name}: {self.task.family}, T = {total} s",
                       joint_names=self.joint_names, waypoint_via=self.waypoint_via,
                       torques=None if self.torque_limit is None else (self.torques_at, self.torque_limit))
 
@@ -584,20 +590,34 @@ def robot_limits(robot: Robot, task: Task) -> JointLimits:
     return limits
 
 
-def _beyond_the_robot(robot: Robot, limits: JointLimits) -> list[str]:
+def _beyond_the_robot(robot: Robot, limits: JointLimits) -> tuple[dict, ...]:
     """Where ``limits`` (the robot's with the task's overrides) allow more than the robot's own (its URDF's
     range and velocity, and its limits file's): a joint planned there may be beyond what the arm does, so the
     plan says so (the UR5's shoulder was planned to 500 deg, its URDF's range +-360 deg, without a word).
-    Not the URDF's placeholders (a velocity of 0, a range of [0, 0]), which the task must replace."""
+    Not the URDF's placeholders (a velocity of 0, a range of [0, 0]), which the task must replace.
+
+    Returns:
+        One record per joint and limit, for ``summary.json``: ``joint``, ``limit`` (``position_deg`` or
+        ``velocity_deg_s``), and the ``task``'s and the ``robot``'s value ([lower, upper] for a range) [deg].
+    """
     own, said = robot.limits, []
     for j, name in enumerate(limits.names):
         if name not in robot.placeholder_range and (limits.lower[j] < own.lower[j] or limits.upper[j] > own.upper[j]):
-            said.append(f"joint {name} range [{in_degrees(limits.lower[j], 0)}, {in_degrees(limits.upper[j], 0)}] "
-                        f"(URDF [{in_degrees(own.lower[j], 0)}, {in_degrees(own.upper[j], 0)}])")
+            said.append({"joint": name, "limit": "position_deg",
+                         "task": np.rad2deg([limits.lower[j], limits.upper[j]]).tolist(),
+                         "robot": np.rad2deg([own.lower[j], own.upper[j]]).tolist()})
         if name not in robot.placeholder_velocity and limits.velocity[j] > own.velocity[j]:
-            said.append(f"joint {name} velocity {in_degrees(limits.velocity[j], 1)} (URDF "
-                        f"{in_degrees(own.velocity[j], 1)})")
-    return said
+            said.append({"joint": name, "limit": "velocity_deg_s", "task": float(np.rad2deg(limits.velocity[j])),
+                         "robot": float(np.rad2deg(own.velocity[j]))})
+    return tuple(said)
+
+
+def _beyond_the_robot_text(widened: dict) -> str:
+    """One record of ``_beyond_the_robot`` as the progress says it."""
+    if widened["limit"] == "position_deg":
+        return (f"joint {widened['joint']} range [{widened['task'][0]:.6g} deg, {widened['task'][1]:.6g} deg] "
+                f"(URDF [{widened['robot'][0]:.6g} deg, {widened['robot'][1]:.6g} deg])")
+    return f"joint {widened['joint']} velocity {widened['task']:.6g} deg/s (URDF {widened['robot']:.6g} deg/s)"
 
 
 def as_task(task) -> Task:
@@ -732,6 +752,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         raise InputError(f"progress must be a planner.progress.TerminalProgress or None, got {type(progress).__name__}")
     progress = progress or TerminalProgress("", quiet=True)
     robot, ik, alternative, torque = None, None, None, None
+    widened: tuple[dict, ...] = ()
     if task.robot is not None:
         progress.note(f"loading robot {task.robot.name or task.robot.urdf}")
         robot = load_robot(task.robot.urdf, task.robot.name, task.robot.tool_frame)
@@ -744,7 +765,8 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         widened = _beyond_the_robot(robot, limits)
         if widened:
             progress.note(f"the task's limits go beyond those of robot {robot.name!r} (its URDF's): "
-                          f"{'; '.join(widened[:3])}{'; ...' * (len(widened) > 3)}; the plan keeps to the task's")
+                          f"{'; '.join(map(_beyond_the_robot_text, widened[:3]))}{'; ...' * (len(widened) > 3)}; "
+                          f"the plan keeps to the task's (summary.json: robot.limits_beyond_urdf)")
         robot = replace(robot, limits=limits)  # IK searches the very ranges the timing enforces
         if task.robot_limits.torque is not None:  # checked now, not after IK and the timing runs
             torque = torque_limits(robot, task.robot_limits.torque)
@@ -1008,7 +1030,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         raise InfeasibleError(f"the planned trajectory fails the exact check: {first}", joint=first.joint,
                               quantity=first.quantity, value=first.value, limit=first.limit)
     planned = PlanResult(task, via, limits, result, trajectory, timings, robot, ik, path, branch_times, kept, met,
-                         trajectory_digest(trajectory))
+                         trajectory_digest(trajectory), widened)
     exceeded = max(planned.figures.violations(limits), key=lambda violation: violation.ratio, default=None)
     if exceeded is not None:  # never returned, whatever stage let it through (each checks its own result)
         raise InfeasibleError(f"the planned trajectory fails the exact check: {exceeded}", violation=exceeded)

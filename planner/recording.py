@@ -55,7 +55,7 @@ import numpy as np
 
 from .errors import InputError, RecordingError, ViewerError, shown
 from .kinematics import continuity_breaks, kinematic_figures, via_point_misses
-from .limits import DEGREE_UNITS, PROFILE_QUANTITIES, QUANTITIES, JointLimits
+from .limits import DEGREE_UNITS, PROFILE_QUANTITIES, QUANTITIES, JointLimits, seconds_text
 from .outputs import not_utf8, utf8_path
 from .splines import MAX_SAMPLES, PiecewisePolynomial
 from .validate import CONTROL_CHARACTERS
@@ -201,7 +201,7 @@ def plan_summary(result) -> str:
         f"**robot** {_markdown_text(robot.name) if robot is not None else 'none (joint space)'} · "
         f"**family** {_markdown_text(result.task.family)} · "
         f"**optimizer** {_markdown_text(optimizer_name(result))}"
-        f" · **total time** {result.trajectory.total_time:.4f} s",
+        f" · **total time** {seconds_text(result.trajectory.total_time)} s",
         "",
         "| largest ratio | " + " | ".join(QUANTITIES) + " |",
         "|---|" + "---|" * len(QUANTITIES),

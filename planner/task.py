@@ -683,6 +683,11 @@ def plain_values(value, path: str = "", depth: int = 0):
     if depth > MAX_NESTING:
         raise TaskError(path if len(path) <= 60 else f"{path[:60]}...",
                         f"nested deeper than {MAX_NESTING} levels (a list or mapping containing itself?)")
+    if isinstance(value, np.ma.MaskedArray) and np.ma.is_masked(value):
+        index = [int(i) for i in np.argwhere(np.ma.getmaskarray(value))[0]]
+        raise TaskError(path + "".join(f"[{i}]" for i in index),
+                        "is a masked entry of a numpy masked array, not a number "
+                        "(give the values, or fill the masked ones: numpy.ma.filled)")
     if isinstance(value, np.ndarray):
         return value.tolist()
     if isinstance(value, np.generic):

@@ -55,6 +55,8 @@ def number(value, *, integer: bool = False) -> float:
         InputError: whose message is the problem alone ("must be a number, got 'x'"), for the caller to
             prefix with the name of what was given.
     """
+    if isinstance(value, np.floating) and np.isfinite(value) and not math.isfinite(float(value)):
+        raise InputError(f"must be a number a double holds (a magnitude up to 1.8e308), got {shown(value)}")
     if isinstance(value, np.generic) and not isinstance(value, np.bool_):
         value = value.item() if not isinstance(value, np.floating) else float(value)
     if isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -88,7 +90,9 @@ def within(value, rule: Range, given=None):
     """``value`` if it is in ``rule``; else an ``InputError`` saying so (showing ``given``, the value as
     the user wrote it, when given)."""
     if value not in rule:
-        raise InputError(f"must be {rule}, got {shown(value if given is None else given)}")
+        rounded = given is not None and isinstance(given, np.floating) and value != given
+        raise InputError(f"must be {rule}, got {shown(value if given is None else given)}"
+                         + (f" ({value:g} as a double)" if rounded else ""))
     return value
 
 

@@ -10,7 +10,7 @@ from scipy.integrate import quad
 from conftest import via_and_durations
 from planner import JointLimits, get_family, kinematic_figures, paper, time_scale_factor
 from planner.kinematics import batch_scale_factors, column_roots, continuity_breaks, max_abs
-from planner.limits import in_degrees_apart
+from planner.limits import in_degrees_apart, seconds_text
 from planner.splines import PiecewisePolynomial
 
 # Reference maxima, computed independently of this code: hybrid spline, Table II via-points, Table IV
@@ -278,6 +278,12 @@ def test_a_position_violation_reads_above_or_below_and_the_tolerance_is_exact(pa
     value, limit = in_degrees_apart(top, top - 1.5e-9, 0)  # as many digits as it takes to tell them apart
     assert str(violation) == f"joint joint3 position {value} is above its upper limit {limit}"
     assert value != limit
+
+
+def test_a_duration_reads_with_its_digits_however_short():
+    """Total times print to 4 decimals, but a 9.9e-6 s trajectory read "T = 0.0000 s" (sweep 21)."""
+    assert [seconds_text(t) for t in (17.31280004, 0.5, 0.001, 9.9e-6)] == ["17.3128", "0.5000", "0.0010", "9.9e-06"]
+    assert seconds_text(2.5e-4, 3) == "0.00025" and seconds_text(0.0125, 3) == "0.013"
 
 
 # ------------------------------------------------------------ roots against numpy's (from a mutation run)

@@ -802,19 +802,25 @@ def test_task_limits_beyond_the_robots_own_are_said():
     joint, the task's limit and the URDF's; narrower overrides, and the bundled tasks, say nothing."""
     from planner.progress import TerminalProgress
 
-    def notes_of(limits: dict) -> list[str]:
+    def notes_of(limits: dict) -> tuple[list[str], list]:
         notes: list[str] = []
         progress = TerminalProgress("t", quiet=True)
         progress.note = notes.append
-        plan({"version": 1, "robot": {"name": "ur5", "tool_frame": "tool0"},
-              "waypoints": {"joints_deg": [[0, -90, 90, 0, 90, 0], [40, -60, 60, 10, 80, 20]]},
-              "limits": {**UR5_FAST, **limits}}, progress=progress)
-        return [note for note in notes if note.startswith("the task's limits go beyond")]
+        result = plan({"version": 1, "robot": {"name": "ur5", "tool_frame": "tool0"},
+                       "waypoints": {"joints_deg": [[0, -90, 90, 0, 90, 0], [40, -60, 60, 10, 80, 20]]},
+                       "limits": {**UR5_FAST, **limits}}, progress=progress)
+        return ([note for note in notes if note.startswith("the task's limits go beyond")],
+                result.summary()["robot"]["limits_beyond_urdf"])
 
     ranges = [[-500, 500]] + [[-180, 180]] * 5
-    said = notes_of({"position_deg": ranges, "velocity_deg_s": [1000, 90, 90, 90, 90, 90]})
+    said, summary = notes_of({"position_deg": ranges, "velocity_deg_s": [1000, 90, 90, 90, 90, 90]})
     assert len(said) == 1 and said[0] == ("the task's limits go beyond those of robot 'ur5' (its URDF's): joint "
                                           "shoulder_pan_joint range [-500 deg, 500 deg] (URDF [-360 deg, 360 deg]); "
                                           "joint shoulder_pan_joint velocity 1000 deg/s (URDF 180.482 deg/s); the "
-                                          "plan keeps to the task's")
-    assert notes_of({"position_deg": [[-100, 100]] * 6, "velocity_deg_s": [90] * 6}) == []
+                                          "plan keeps to the task's (summary.json: robot.limits_beyond_urdf)")
+    urdf_velocity = pytest.approx(np.rad2deg(3.15), rel=1e-9)  # the UR5 URDF's shoulder_pan_joint, rad/s
+    assert summary == [{"joint": "shoulder_pan_joint", "limit": "position_deg", "task": [-500.0, 500.0],
+                        "robot": [-360.0, 360.0]},
+                       {"joint": "shoulder_pan_joint", "limit": "velocity_deg_s", "task": 1000.0,
+                        "robot": urdf_velocity}]
+    assert notes_of({"position_deg": [[-100, 100]] * 6, "velocity_deg_s": [90] * 6}) == ([], [])

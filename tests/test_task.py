@@ -544,6 +544,32 @@ def test_numpy_scalars_of_any_precision_read_as_numbers():
         make_task(joints_deg=np.array([[0], [np.inf]], dtype=np.longdouble), limits=limits)
 
 
+def test_long_doubles_no_double_holds_are_named_as_such():
+    """A long double that underflows to 0 was refused as if it were not > 0; one beyond any double as
+    "got inf" (sweep 21)."""
+    from planner import make_task
+    limits = {"velocity_deg_s": [100], "acceleration_deg_s2": [200], "jerk_deg_s3": [400]}
+    with pytest.raises(TaskError, match=re.escape("trajectory.sample_rate_hz: must be > 0 and <= 100000, got "
+                                                  "np.longdouble('1e-4000') (0 as a double)")):
+        make_task(joints_deg=[[0], [1]], limits=limits, trajectory={"sample_rate_hz": np.longdouble("1e-4000")})
+    with pytest.raises(TaskError, match=re.escape("limits.velocity_deg_s[0]: must be a number a double holds "
+                                                  "(a magnitude up to 1.8e308), got np.longdouble('1e+4000')")):
+        make_task(joints_deg=[[0], [1]], limits={**limits, "velocity_deg_s": [np.longdouble("1e4000")]})
+
+
+def test_masked_entries_are_named_not_read_as_missing():
+    """A masked array's masked entry read as None ("must be a number, got None"); one without masked entries
+    is its values."""
+    from planner import make_task
+    limits = {"velocity_deg_s": [100, 100], "acceleration_deg_s2": [200, 200], "jerk_deg_s3": [400, 400]}
+    via = np.array([[0.0, 0.0], [40.0, -20.0], [90.0, 10.0]])
+    with pytest.raises(TaskError, match=re.escape("waypoints.joints_deg[1][0]: is a masked entry of a numpy masked "
+                                                  "array, not a number")):
+        make_task(joints_deg=np.ma.masked_array(via, mask=[[0, 0], [1, 0], [0, 0]]), limits=limits)
+    unmasked = make_task(joints_deg=np.ma.masked_array(via, mask=False), limits=limits)
+    np.testing.assert_array_equal(unmasked.joint_waypoints, np.deg2rad(via))
+
+
 @pytest.mark.parametrize("optimizer", [{"weights": [1, 1000]}, {"objective": "time", "weights": [1, 0]}])
 def test_weights_without_the_time_jerk_objective_are_refused(optimizer):
     """They were accepted and silently unused."""
