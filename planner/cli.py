@@ -7,7 +7,8 @@ print one line on stderr. What cannot be printed (stdout or stderr closed, a pip
 closed early, a full device) is dropped: the exit code still says how the command
 ended. Output paths are checked before any work (``planner.outputs``); the heavy
 modules are imported only once the signal handlers are in place, so an
-interruption at any moment is one line too.
+interruption is one line too from then on: within the first few tens of milliseconds, while
+Python itself starts and imports this module, Ctrl-C still ends the process Python's own way.
 """
 
 from __future__ import annotations

@@ -47,6 +47,7 @@ import os
 import secrets
 import shutil
 import stat
+import sys
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterable, Iterator
@@ -293,14 +294,20 @@ class _Lock:
                 return
             os.close(handle)
 
-    def release(self) -> None:
+    def release(self) -> str | None:
+        """Unlock and remove the lock file; the reason it could not be removed (a folder made read-only
+        during the run), else None."""
+        left = None
         if self.handle is not None:
             try:
                 os.unlink(self.path)
             except FileNotFoundError:
                 pass
+            except OSError as exc:
+                left = exc.strerror or str(exc)
             os.close(self.handle)
             self.handle = None
+        return left
 
 
 def _exchange(first: Path, second: Path) -> bool:
@@ -455,9 +462,16 @@ def output_folder(path, *, force: bool = False, files: Iterable[str] = ()) -> It
     finally:
         if staging is not None:
             shutil.rmtree(staging, ignore_errors=True)
-        lock.release()
+        reason = lock.release()
         if not published:  # parents made for this run go too: a failed run leaves no trace
             _remove_empty(created)
+        left = [str(place) for place, stays in ((staging, staging is not None and os.path.lexists(staging)),
+                                                (lock.path, reason is not None)) if stays]
+        failure = sys.exc_info()[1]
+        if left and isinstance(failure, OutputError):  # a folder made read-only during the run, say
+            raise OutputError(f"{failure}; the run's {' and '.join(map(shown, left))} could not be removed"
+                              f"{f' ({reason})' if reason else ''}: remove {'them' if len(left) > 1 else 'it'} "
+                              f"once the folder is writable again") from None
 
 
 def _missing_parents(path: Path) -> list[Path]:

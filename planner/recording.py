@@ -666,6 +666,7 @@ def read_recording(path) -> RecordedPlan:
     count, rate_hz, span = _end(path, end_text, trajectory.total_time)
     times_ns, positions = _samples(path, chunks.get(_SAMPLES, []), len(names))
     _require_complete(path, times_ns, count, rate_hz, span)
+    _require_schedule(path, times_ns, trajectory, rate_hz)
     return RecordedPlan(times_ns / 1e9, positions, trajectory, limits, names, rate_hz, via_points)
 
 
@@ -889,6 +890,24 @@ def _require_complete(path: Path, times_ns: np.ndarray, count: int, rate_hz: flo
         k = int(np.argmax(steps))
         raise RecordingError(f"{incomplete} no samples between {_seconds(times_ns[k])} and "
                              f"{_seconds(times_ns[k + 1])} (sample period {1 / rate_hz!r} s)")
+
+
+def _require_schedule(path: Path, times_ns: np.ndarray, trajectory: PiecewisePolynomial, rate_hz: float) -> None:
+    """Samples at the times the planner samples ``trajectory`` at ``rate_hz`` (``sample_times``): an end marker
+    whose rate disagrees with its samples (a CSV export would follow the rate, not the samples) is refused."""
+    forged = f"{path}: recording is not as the planner wrote it:"
+    try:
+        schedule_ns = trajectory.sample_times(rate_hz) * 1e9
+    except InputError as exc:
+        raise RecordingError(f"{forged} {exc}") from None
+    if len(schedule_ns) != len(times_ns):
+        raise RecordingError(f"{forged} {len(times_ns)} samples where {rate_hz!r} Hz (the end marker's rate) over "
+                             f"{trajectory.total_time!r} s makes {len(schedule_ns)}")
+    off = np.abs(times_ns - schedule_ns)
+    if off.max() > _TIME_QUANTUM_NS + 1e-12 * schedule_ns[-1]:
+        k = int(np.argmax(off))
+        raise RecordingError(f"{forged} sample {k} at {_seconds(times_ns[k])}, where {rate_hz!r} Hz (the end "
+                             f"marker's rate) samples at {_seconds(schedule_ns[k])}")
 
 
 # ---------------------------------------------------------------------------- the viewer

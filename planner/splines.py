@@ -296,7 +296,9 @@ class SplineFamily:
         via, h = self.check(via_points, durations)
         if h.ndim != 1:
             raise InputError(f"build takes one duration vector, got shape {h.shape}; use build_batch")
-        if states is not None and self.free_states:
+        if states is not None and not self.free_states:
+            raise InputError(f"the {self.name} family fixes its via-point states from the durations: give no states")
+        if states is not None:
             states = finite_array("states", states, 3)
             if states.shape != (*via.shape, 3):
                 raise InputError(f"states must have shape (n, J, 3) = {(*via.shape, 3)} (velocity, acceleration "

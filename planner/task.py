@@ -54,7 +54,7 @@ from .read_only import ReadOnlyArrays, freeze_arrays
 from .splines import FAMILIES
 from .timing import OPTIMIZERS, SETTING_RANGES, checked_settings, setting_names
 from .timing.problem import OBJECTIVES
-from .validate import CONTROL_CHARACTERS, DURATION_BOUND_RANGE, MAX_SEED, Range, number, ranged, within
+from .validate import CONTROL_CHARACTERS, DURATION_BOUND_RANGE, MAX_SEED, Range, number, ranged
 from .yaml_input import MAX_NESTING, key_path, read_yaml
 
 SCHEMA_VERSION = 1
@@ -252,16 +252,10 @@ def _number(value, path: str, *, integer: bool = False) -> float:
         return number(value, integer=integer)
 
 
-def _ranged(value, path: str):
-    """``value`` checked against ``RANGES[path]``: a number in its range, or true/false."""
+def _ranged(value, path: str, rule: Range | type | None = None):
+    """``value`` checked against ``rule`` (default ``RANGES[path]``): a number in its range, or true/false."""
     with _at(path):
-        return ranged(value, RANGES[path])
-
-
-def _within(number, given, path: str, rule: Range):
-    """``number`` (read from ``given``) if it is in ``rule``; else a ``TaskError`` at ``path``."""
-    with _at(path):
-        return within(number, rule, given)
+        return ranged(value, RANGES[path] if rule is None else rule)
 
 
 def _vector(value, path: str, rule: Range, length: int | None = None) -> np.ndarray:
@@ -272,8 +266,10 @@ def _vector(value, path: str, rule: Range, length: int | None = None) -> np.ndar
         raise TaskError(path, f"must have {length} values, got {len(value)}")
     if not value:
         raise TaskError(path, "must have at least 1 value, got an empty list")
-    numbers = [_number(v, f"{path}[{i}]") for i, v in enumerate(value)]
-    return np.array([_within(number, v, f"{path}[{i}]", rule) for i, (number, v) in enumerate(zip(numbers, value))])
+    for i, v in enumerate(value):  # every value a number before any range (an integer beyond a double's: its range)
+        if isinstance(v, bool) or not isinstance(v, int):
+            _number(v, f"{path}[{i}]")
+    return np.array([_ranged(v, f"{path}[{i}]", rule) for i, v in enumerate(value)])
 
 
 def _text(value, path: str) -> str:

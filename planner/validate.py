@@ -65,7 +65,8 @@ def number(value, *, integer: bool = False) -> float:
         try:
             value = float(value)
         except OverflowError:
-            raise InputError(f"must be a finite number, got {shown(value)}") from None
+            raise InputError(f"must be a number a double holds (a magnitude up to 1.8e308), got {shown(value)}") \
+                from None
     if isinstance(value, float) and not math.isfinite(value):
         raise InputError(f"must be a finite number, got {value}")
     if integer and int(value) != value:
@@ -103,6 +104,8 @@ def ranged(value, rule: Range | type):
         if not isinstance(value, (bool, np.bool_)):
             raise InputError(f"must be true or false, got {shown(value)}")
         return bool(value)
+    if isinstance(value, int) and not isinstance(value, bool) and value not in rule:  # exact, however large
+        raise InputError(f"must be {rule}, got {shown(value)}")
     return within(number(value, integer=rule.integer), rule, value)
 
 

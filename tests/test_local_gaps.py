@@ -74,3 +74,24 @@ def test_slsqp_stops_after_its_iterations():
     one, many = _refined(problem, start, max_iterations=1), _refined(problem, start, max_iterations=100)
     assert one.evaluations <= 4 * (problem.segment_count + 1) + 1 < many.evaluations
     assert one.best_objective > many.best_objective * (1 + 1e-3)
+
+
+def test_the_finite_difference_points_are_evaluated_in_bounded_chunks(monkeypatch):
+    """The S + 1 points of a forward-difference Jacobian were one batch: 3000 segments made a 1.2 GB array
+    (a MemoryError out of planner.plan) and overran the time limit 3-fold (sweep 22). In chunks of at most
+    CHUNK_COEFFICIENTS coefficients, each counted (the time limit checked) as it is evaluated, with the same
+    values as one batch."""
+    import planner.timing.local as local
+    problem = TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", paper.paper_limits())
+    x = _equal_durations(problem) * np.linspace(0.8, 1.2, problem.segment_count)
+    whole = local._Model(problem, SearchTracker(problem)).at(x)
+    segments, joints = problem.segment_count, problem.joint_count
+    monkeypatch.setattr(local, "CHUNK_COEFFICIENTS", 3 * segments * joints * 8)  # three points a chunk
+    tracker = SearchTracker(problem)
+    counted: list[int] = []
+    monkeypatch.setattr(tracker, "count", counted.append)
+    chunked = local._Model(problem, tracker).at(x)
+    assert counted[:-1] == [3] * (len(counted) - 1) and 1 <= counted[-1] <= 3 and sum(counted) == segments + 1
+    np.testing.assert_allclose(chunked.df, whole.df, rtol=0, atol=0)
+    np.testing.assert_allclose(chunked.dg, whole.dg, rtol=0, atol=0)
+    assert (chunked.f, chunked.g.tolist()) == (whole.f, whole.g.tolist())

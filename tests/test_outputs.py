@@ -577,3 +577,25 @@ def test_a_name_too_long_for_its_staging_folder_says_how_long_it_may_be(tmp_path
     with outputs.output_folder(tmp_path / ("n" * 237), files=["a.txt"]) as staging:
         (staging / "a.txt").write_text("written")
     assert (tmp_path / ("n" * 237) / "a.txt").read_text() == "written"
+
+
+def test_a_lock_file_the_run_cannot_remove_is_named_beside_the_refusal(tmp_path, monkeypatch):
+    """A folder made read-only during a run: the pre-publish check's refusal was replaced by the lock file's
+    PermissionError (an internal error, exit 1), and the lock file and staging folder were left unsaid (sweep 22)."""
+    real = os.unlink
+
+    def unlink(path, *args, **kwargs):
+        if str(path).endswith(".lock"):
+            raise PermissionError(13, "Permission denied", str(path))
+        return real(path, *args, **kwargs)
+
+    monkeypatch.setattr(os, "unlink", unlink)
+    with pytest.raises(OutputError) as refusal:
+        with output_folder(tmp_path / "out"):
+            raise OutputError("the run's own refusal")
+    assert str(refusal.value) == (f"the run's own refusal; the run's '{tmp_path / '.out.lock'}' could not be removed "
+                                  f"(Permission denied): remove it once the folder is writable again")
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".out.lock"]  # the staging folder went
+    with output_folder(tmp_path / "out2") as staging:  # published: the empty lock file stays, unsaid
+        (staging / "a.txt").write_text("kept")
+    assert (tmp_path / "out2" / "a.txt").read_text() == "kept"

@@ -348,6 +348,11 @@ MALFORMED = {  # case: (write_like_planner arguments, a text the message must ho
                                 "sample_count"),
     "end marker rate NaN": (dict(end=json.dumps({**end_marker(_TIMES, RATE_HZ), "sample_rate_hz": float("nan")})),
                             "sample_rate_hz"),
+    "end marker rate half the samples'": (dict(end=json.dumps({**end_marker(_TIMES, RATE_HZ),
+                                                                "sample_rate_hz": RATE_HZ / 2})),
+                                          "not as the planner wrote it"),  # (sweep 22: the CSV followed the rate)
+    "end marker rate 1e-300 Hz": (dict(end=json.dumps({**end_marker(_TIMES, RATE_HZ), "sample_rate_hz": 1e-300})),
+                                  "not as the planner wrote it"),
     "end marker span one number": (dict(end=json.dumps({**end_marker(_TIMES, RATE_HZ), "time_span_s": [4.0]})),
                                    "time_span_s"),
     "samples of one joint too few": (dict(positions=_POSITIONS[:, :1]), "expected 2 joint positions"),

@@ -208,9 +208,15 @@ def test_hermite7_matches_scipy_with_its_rule_and_with_any_states(case):
                                            rtol=1e-7, atol=1e-6 * (1 + 1 / h.min() ** order))
 
 
-def test_families_with_fixed_states_refuse_given_ones(paper_via):
-    with pytest.raises(InputError, match="the hybrid family fixes its via-point states"):
-        get_family("hybrid").coefficients_from_states(paper_via, np.ones((1, 9)), np.zeros((1, 8, 6, 3)))
+@pytest.mark.parametrize("family", ["cubic", "hybrid", "quintic"])
+@pytest.mark.parametrize("states", ["garbage", 5, [[[0.0] * 3] * 6] * 8, np.zeros((8, 6, 3))])
+def test_families_with_fixed_states_refuse_given_ones(paper_via, family, states):
+    """Whatever is given (build on text, a number or a nested list raised a raw TypeError: sweep 22)."""
+    segments = get_family(family).segment_count(len(paper_via))
+    with pytest.raises(InputError, match=f"the {family} family fixes its via-point states"):
+        get_family(family).build(paper_via, np.ones(segments), states=states)
+    with pytest.raises(InputError, match=f"the {family} family fixes its via-point states"):
+        get_family(family).coefficients_from_states(paper_via, np.ones((1, segments)), np.zeros((1, 8, 6, 3)))
 
 
 def test_segment_counts_and_via_times(paper_via):

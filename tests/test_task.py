@@ -330,9 +330,10 @@ def test_lists_and_mappings_are_not_names(where, value):
 
 # Class 6: numbers too large for a float, negative seeds, empty lists, wrong types.
 @pytest.mark.parametrize("where, value, message", ids=str, argvalues=[
-    ("waypoints.joints_deg[0][0]", 10**400, r"must be a finite number, got 10{78}… \(401 characters\)$"),
-    ("limits.velocity_deg_s[0]", -10**400, r"must be a finite number"),
-    ("trajectory.sample_rate_hz", 10**400, r"must be a finite number"),
+    ("waypoints.joints_deg[0][0]", 10**400, r"must be >= -100000 and <= 100000, got 10{78}… \(401 characters\)$"),
+    ("limits.velocity_deg_s[0]", -10**400, r"must be >= 1e-12 and <= 1e\+15, got -10{77}"),  # its range (sweep 22)
+    ("limits.velocity_deg_s[0]", 9 * 10**400, r"must be >= 1e-12 and <= 1e\+15, got 90{78}"),
+    ("trajectory.sample_rate_hz", 10**400, r"must be > 0 and <= 100000, got 10{78}"),
     ("optimizer.seed", 10**400, r"must be an integer >= 0 and <= 9223372036854775807, got 10{78}…"),
     ("optimizer.seed", -1, r"must be an integer >= 0 .*, got -1$"),
     ("optimizer.seed", 2**63, r"got 9223372036854775808$"),

@@ -4,7 +4,7 @@ Variables: the durations h [s]. Objective: sum h (or K_t sum h + K_j E).
 Constraints, one per limited (joint, order): g = 1 - r^(1/d) >= 0, which is
 homogeneous of degree 1 in a common scale of h; one per finite position
 bound: the exact range reached stays inside it. Jacobians by forward
-differences, all S + 1 points evaluated in one batch.
+differences, the S + 1 points evaluated in batches of bounded size.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import numpy as np
 
 from ..kinematics import batch_scale_factors, jerk_energy, position_range
 from .problem import TimingProblem
-from .result import SearchTracker
+from .result import CHUNK_COEFFICIENTS, SearchTracker
 
 _STEP = 1e-7
 
@@ -32,7 +32,14 @@ class _Model:
         self._key: bytes | None = None
 
     def _values(self, h: np.ndarray):
-        """Objective (B,) and constraints (B, m) at durations h (B, S)."""
+        """Objective (B,) and constraints (B, m) at durations h (B, S), ``CHUNK_COEFFICIENTS`` at a time
+        (the S + 1 points of 3000 segments made one 1.2 GB array), the time limit checked after each."""
+        rows = max(1, CHUNK_COEFFICIENTS // (self.problem.segment_count * self.problem.joint_count * 8))
+        parts = [self._chunk_values(h[begin:begin + rows]) for begin in range(0, len(h), rows)]
+        return np.concatenate([part[0] for part in parts]), np.concatenate([part[1] for part in parts])
+
+    def _chunk_values(self, h: np.ndarray):
+        """``_values`` of one chunk."""
         p = self.problem
         coefficients = p.family.batch_coefficients(p.via_points, h)
         ratios, _ = batch_scale_factors(coefficients, h, p.limits)
