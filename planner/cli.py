@@ -147,6 +147,8 @@ def _replay(args) -> int:
         if args.screenshot is not None:
             from .screenshot import render_screenshot
             render_screenshot(args.recording, files.enter_context(atomic_file(args.screenshot, force=args.force)), at)
+        with interrupts.publishing():  # both renamed, or (interrupted before) neither
+            files.close()
     for option, written in (("--export-csv", target), ("--screenshot", args.screenshot)):
         if written is not None:  # published: say where (the command printed nothing on success)
             print(f"written ({option}): {_printable(str(written))}"

@@ -18,6 +18,7 @@ from typing import Iterator
 _pending: BaseException | None = None
 _finished = False
 _deferring = 0
+_publishing = False
 
 
 def request(interruption: BaseException) -> None:
@@ -35,7 +36,7 @@ def request(interruption: BaseException) -> None:
 
 def check() -> None:
     """Raise the recorded interruption, if any (call it where a swallowed one must surface)."""
-    if _pending is not None and not _finished:
+    if _pending is not None and not _finished and not _publishing:
         raise _pending
 
 
@@ -53,6 +54,29 @@ def deferred() -> Iterator[None]:
     check()
 
 
+@contextmanager
+def publishing() -> Iterator[None]:
+    """The step that publishes the outputs (renames that must all happen, or none): an interruption requested
+    before it is raised at its start; one requested in it waits for its end. Once it has published, the work
+    is done (``finish``): the interruption changes nothing. If it fails, the interruption is raised instead.
+    Only renames belong in it: ``check`` raises nothing there (a second file's check would stop the pair half
+    published)."""
+    global _deferring, _publishing
+    check()
+    _deferring += 1
+    _publishing = True
+    try:
+        yield
+    except BaseException:
+        _deferring -= 1
+        _publishing = False
+        check()
+        raise
+    _deferring -= 1
+    _publishing = False
+    finish()
+
+
 def finish() -> None:
     """The outputs are published: ignore interruptions from now on."""
     global _finished
@@ -61,5 +85,5 @@ def finish() -> None:
 
 def reset() -> None:
     """Forget any interruption (a new command starts)."""
-    global _pending, _finished
-    _pending, _finished = None, False
+    global _pending, _finished, _publishing
+    _pending, _finished, _publishing = None, False, False

@@ -54,6 +54,7 @@ from typing import Iterable, Iterator
 
 from .errors import OutputError, path_encoding_advice, shown
 from .interrupts import check as check_interrupted
+from .interrupts import publishing
 
 MARKER = ".planner-output"
 #: In every staging folder from its creation until publishing: a later run removes only folders holding it.
@@ -336,7 +337,7 @@ def _publish_whole(staging: Path, folder: Path) -> None:
     os.rename(folder, aside)
     try:
         os.rename(staging, folder)
-    except OSError:
+    except BaseException:  # the old folder back, whatever stopped it
         os.rename(aside, folder)
         raise
     shutil.rmtree(aside, ignore_errors=True)
@@ -444,18 +445,19 @@ def output_folder(path, *, force: bool = False, files: Iterable[str] = ()) -> It
                               f"{_longer_names_hint(exc)}") from None
         (staging / STAGING_MARKER).touch()
         yield staging
-        check_interrupted()  # an interruption a library swallowed must not publish half a run
         # Again: while this run worked, another may have written into DIR (its own --out DIR/sub, say);
         # swapping DIR out whole would delete that. Refused now, or (--force) merged file by file.
         in_place = in_place or check_output_folder(folder, force=force, files=files)[1]
         (staging / STAGING_MARKER).unlink()
         written = _write_marker(staging, _other_entries(folder, files) if in_place else None)
-        if in_place:
-            folder.mkdir(exist_ok=True)
-            _publish_in_place(staging, folder, (_own_files(_planner_files(folder), set(files)) or set()) - written)
-        else:
-            _publish_whole(staging, folder)
-        published = True
+        with publishing():  # an interruption a library swallowed stops it first; one in it waits: no half run
+            if in_place:
+                folder.mkdir(exist_ok=True)
+                _publish_in_place(staging, folder,
+                                  (_own_files(_planner_files(folder), set(files)) or set()) - written)
+            else:
+                _publish_whole(staging, folder)
+            published = True
     except OSError as exc:  # a full disk, a quota: the outputs could not be written (the folder is as it was)
         raise OutputError(f"output folder {shown(str(folder))}: cannot write the outputs "
                           f"({exc.strerror or exc})") from None

@@ -599,3 +599,61 @@ def test_a_lock_file_the_run_cannot_remove_is_named_beside_the_refusal(tmp_path,
     with output_folder(tmp_path / "out2") as staging:  # published: the empty lock file stays, unsaid
         (staging / "a.txt").write_text("kept")
     assert (tmp_path / "out2" / "a.txt").read_text() == "kept"
+
+
+def _interrupted_after_first(monkeypatch, name: str):
+    """Make ``os.<name>`` record a Ctrl-C (as the command line's handler does) after its first call."""
+    from planner import interrupts
+    real, calls = getattr(os, name), []
+
+    def moved(*args, **kwargs):
+        real(*args, **kwargs)
+        calls.append(args)
+        if len(calls) == 1:
+            interrupts.request(KeyboardInterrupt())
+    monkeypatch.setattr(os, name, moved)
+    return calls
+
+
+@pytest.mark.parametrize("way", ["in place", "renamed aside"])
+def test_an_interruption_while_publishing_waits_until_the_folder_is_whole(way, tmp_path, monkeypatch):
+    """A Ctrl-C between two of publishing's renames left half the folder new (in place, beside a user's file),
+    or the folder gone (where the system has no atomic exchange: renamed aside, then the staging folder in;
+    sweep 22). It now waits for the end of publishing, after which the work is done and it changes nothing."""
+    from planner import interrupts
+    interrupts.reset()
+    folder = tmp_path / "o"
+    names = ("a.txt", "b.txt")
+    with output_folder(folder, files=names) as staging:
+        for name in names:
+            (staging / name).write_text("old")
+    if way == "in place":
+        (folder / "notes.txt").write_text("the user's")
+    else:
+        monkeypatch.setattr(outputs, "_exchange", lambda first, second: False)
+    interrupts.reset()
+    calls = _interrupted_after_first(monkeypatch, "replace" if way == "in place" else "rename")
+    try:
+        with output_folder(folder, force=True, files=names) as staging:
+            for name in names:
+                (staging / name).write_text("new")
+        assert len(calls) >= 2  # the interruption came between two renames
+        assert [(folder / name).read_text() for name in names] == ["new", "new"]
+        interrupts.check()  # published: it changes nothing now
+    finally:
+        interrupts.reset()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["o"]
+
+
+def test_an_interruption_before_publishing_publishes_nothing(tmp_path):
+    from planner import interrupts
+    interrupts.reset()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            with output_folder(tmp_path / "o") as staging:
+                (staging / "a.txt").write_text("new")
+                with interrupts.deferred():  # recorded, and raised as the block ends
+                    interrupts.request(KeyboardInterrupt())
+    finally:
+        interrupts.reset()
+    assert list(tmp_path.iterdir()) == []
