@@ -25,6 +25,16 @@ from .result import (
     time_limit,
 )
 from .starts import start_shapes
+from .windows import (
+    STITCHED_IPOPT,
+    WINDOW_CHORDS,
+    WINDOW_IPOPT,
+    WINDOW_MARGIN,
+    WINDOWS,
+    window_spans,
+    windowed,
+    windowed_start,
+)
 
 #: The start ``shape_starts`` adds where no shape's NLP solved (``result.SOLVED``): equal durations.
 UNIFORM = "uniform"
@@ -37,7 +47,17 @@ def shape_starts(problem: TimingProblem, *, seed: int | None = None,
     """The sparse NLP from the cheap shapes of ``starts.py`` (deterministic; ``seed`` is ignored)."""
     tracker = SearchTracker(problem, progress, 1)
     shapes = start_shapes(problem)
-    nlp_refine(problem, shapes, tracker)
+    stitched = windowed_start(problem) if windowed(problem) else None
+    settings: dict = {}
+    if stitched is not None:
+        nlp_refine(problem, {WINDOWS: stitched}, tracker, STITCHED_IPOPT)
+        settings["windows"] = {"count": len(window_spans(len(problem.via_points) - 1)), "chords": WINDOW_CHORDS,
+                               "margin": WINDOW_MARGIN, "ipopt": _options(WINDOW_IPOPT),
+                               "stitched_ipopt": _options(STITCHED_IPOPT)}
+    if stitched is not None and any(start.status in SOLVED and start.feasible for start in tracker.starts):
+        shapes = {WINDOWS: stitched}
+    else:  # no windows, or their start did not solve: the shapes themselves
+        nlp_refine(problem, shapes, tracker)
     if not any(start.status in SOLVED for start in tracker.starts):
         # IPOPT is that sensitive on some problems (quintic, 6 via-points within 0.3 deg: both starts at the
         # iteration cap, and at the via-points shifted by 360 deg, which round the relative ones
@@ -47,8 +67,14 @@ def shape_starts(problem: TimingProblem, *, seed: int | None = None,
         shapes = {**shapes, UNIFORM: np.ones(problem.segment_count)}
         nlp_refine(problem, {UNIFORM: shapes[UNIFORM]}, tracker)
     tracker.end_iteration()
-    return tracker.result("nlp", f"NLP from {len(shapes)} shapes{_unconverged(tracker.starts)}", None,
-                          {"starts": list(shapes), "nlp": nlp_settings(problem, len(shapes))})
+    origin = "the stitched solutions of its windows" if WINDOWS in shapes else f"{len(shapes)} shapes"
+    return tracker.result("nlp", f"NLP from {origin}{_unconverged(tracker.starts)}", None,
+                          {"starts": list(shapes), "nlp": nlp_settings(problem, len(shapes)), **settings})
+
+
+def _options(ipopt: dict) -> dict:
+    """IPOPT options as ``summary.json`` records them (without CasADi's ``ipopt.`` prefix)."""
+    return {key.removeprefix("ipopt."): value for key, value in ipopt.items()}
 
 
 def _unconverged(starts: list[StartReport]) -> str:

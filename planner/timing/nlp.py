@@ -274,10 +274,14 @@ class TimingNLP:
         problem: the timing problem.
         reference: (S,) feasible durations [s] that set the variable scales.
         robot: torque and tool-speed limits to impose too (``robot_rows.py``), or None.
+        ipopt: IPOPT options over ``IPOPT_OPTIONS`` for every solve (a window's looser tolerances,
+            ``windows.py``).
     """
 
-    def __init__(self, problem: TimingProblem, reference: np.ndarray, robot: RobotConstraints | None = None):
+    def __init__(self, problem: TimingProblem, reference: np.ndarray, robot: RobotConstraints | None = None,
+                 ipopt: dict[str, Any] | None = None):
         self.problem = problem
+        self.ipopt = dict(ipopt or {})
         self.robot = robot if robot is not None and robot.supported else None
         #: whether the robot rows come with a trust region in position (``solve``): a family with free
         #: via-point states, whose positions at the samples those states move
@@ -730,7 +734,8 @@ class _Program:
         # Not expanded to scalar form: building that costs more than it saves, with certificates too
         # (quintic, n = 128: 15.3 s expanded, 5.9 s not; hermite7 paper case 8.3 s, 2.8 s; hybrid,
         # n = 1024, without certificates: 3.5 s, 2.2 s).
-        options: dict[str, Any] = {**IPOPT_OPTIONS, **(WARM_IPOPT_OPTIONS if warm else {}), "expand": False}
+        options: dict[str, Any] = {**IPOPT_OPTIONS, **nlp.ipopt, **(WARM_IPOPT_OPTIONS if warm else {}),
+                                   "expand": False}
         if remaining is not None:
             options["ipopt.max_wall_time"] = max(remaining, 1e-3)
         self.solver = ca.nlpsol("timing", "ipopt", {"x": variables, "f": objective / scales.time,
@@ -851,7 +856,8 @@ def nlp_settings(problem: TimingProblem, starts: int) -> dict:
             "processes": _processes(problem, starts)}
 
 
-def nlp_refine(problem: TimingProblem, starts: dict[str, np.ndarray], tracker: SearchTracker) -> None:
+def nlp_refine(problem: TimingProblem, starts: dict[str, np.ndarray], tracker: SearchTracker,
+               ipopt: dict[str, Any] | None = None) -> None:
     """Solve the sparse NLP from each named start (S,) [s], then from their recombination, and offer
     the repaired results.
 
@@ -860,11 +866,12 @@ def nlp_refine(problem: TimingProblem, starts: dict[str, np.ndarray], tracker: S
     One ``TimingNLP``, scaled by the best repaired start, serves them all. Where
     the solved starts differ, the NLP solves once more from their recombination
     (``starts.recombined``), reported as the start ``recombined``. A
-    ``StartReport`` per start goes to ``tracker.starts``.
+    ``StartReport`` per start goes to ``tracker.starts``. ``ipopt``: options over
+    ``IPOPT_OPTIONS`` (``TimingNLP``).
     """
     labels = list(starts)
     repaired = tracker.evaluate(np.array([starts[label] for label in labels]))
-    nlp = TimingNLP(problem, repaired.durations[int(np.argmin(repaired.objective))])
+    nlp = TimingNLP(problem, repaired.durations[int(np.argmin(repaired.objective))], ipopt=ipopt)
     nlp.blocks  # builds the program without certificates once, before any process forks
     solved = _report_all(tracker, labels, _solve_all(nlp, list(repaired.durations)))
     kept = [(durations, report.objective) for durations, report in solved

@@ -1,0 +1,125 @@
+"""A start for long problems: the NLP solved on overlapping windows of the via-points, stitched.
+
+On a long trajectory the durations of one region hardly depend on those far
+away (the spline's knot states couple neighbouring segments, and that coupling
+decays within a few segments), but IPOPT's path on the whole problem is long:
+clipped random walks of 1024 via-points took 40 to 150 iterations per start at
+about 40 ms each, and the two starts could end 0.1 to 1 % apart. Solved on
+windows of ``WINDOW_CHORDS`` chords instead (each from both cheap shapes of
+``starts.py``, to a looser tolerance, the better kept), the durations of each
+window's core, its chords but ``WINDOW_MARGIN`` at either end, are stitched;
+the whole NLP then solves from there in 12 to 18 iterations.
+
+Windows. The chords 0 .. C-1 are split into k = ceil(C / core) cores of near
+equal length, core = ``WINDOW_CHORDS`` - 2 ``WINDOW_MARGIN``; window i spans its
+core and ``WINDOW_MARGIN`` chords on each side (fewer at the trajectory's
+ends). A window is a timing problem of its own: the family, limits, bounds and
+objective of the whole, through its via-points, from rest to rest. The rest at
+a window's ends slows the chords next to them: the margins absorb it.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import time
+from typing import Callable
+
+import numpy as np
+
+from ..concurrency import core_count, map_forked, map_forked_until
+from ..errors import PlannerError
+from .nlp import TimingNLP
+from .problem import TimingProblem
+from .result import AGREEMENT, SOLVED, remaining_time
+from .starts import chord_segments, recombined, start_shapes
+
+#: The name of the start stitched from the windows (``StartReport.label``).
+WINDOWS = "windows"
+#: Problems with at least this many segments start from their windows (``windowed_start``).
+WINDOWED_SEGMENTS = 384
+#: Chords of a window, and of its margin on each side that is solved but not kept.
+WINDOW_CHORDS = 128
+WINDOW_MARGIN = 16
+#: IPOPT's tolerances in a window (the whole problem is solved to the usual ones after).
+WINDOW_IPOPT = {"ipopt.tol": 1e-6, "ipopt.constr_viol_tol": 1e-6}
+#: IPOPT's settings for the whole problem from the stitched windows: a start near the optimum, where the
+#: default barrier parameter (0.1) first pushes every iterate away from its bounds.
+STITCHED_IPOPT = {"ipopt.mu_init": 1e-3}
+
+
+def window_spans(chords: int) -> list[tuple[int, int, int, int]]:
+    """(first, end, core_first, core_end) chord indices of each window of a trajectory of ``chords``
+    chords (module docstring): the window spans chords first .. end - 1, its core core_first .. core_end - 1,
+    and the cores partition 0 .. chords - 1."""
+    core = WINDOW_CHORDS - 2 * WINDOW_MARGIN
+    count = max(1, math.ceil(chords / core))
+    edges = [round(i * chords / count) for i in range(count + 1)]
+    return [(max(0, low - WINDOW_MARGIN), min(chords, high + WINDOW_MARGIN), low, high)
+            for low, high in zip(edges[:-1], edges[1:])]
+
+
+def windowed(problem: TimingProblem) -> bool:
+    """Whether ``problem`` starts from its windows: long enough, and of a family whose limits the NLP bounds
+    without cut rounds (``quintic`` and ``hermite7`` take rounds of solves in every window)."""
+    return problem.segment_count >= WINDOWED_SEGMENTS and problem.family.name in ("cubic", "hybrid")
+
+
+def _solve_window(problem: TimingProblem, window: tuple[int, int, int, int],
+                  report: Callable | None = None) -> tuple[np.ndarray, np.ndarray] | None:
+    """The durations (S_w,) [s] of one window's NLP (``window_spans``), the best of its two shapes' solves
+    and, where they differ, their recombination's (``starts.recombined``; repaired: feasible and tight), and
+    the chord of ``problem`` each of its segments belongs to (S_w,);
+    None where neither solved. (``report``: ``map_forked_until``'s, unused: a window is whole or nothing.)"""
+    first, end, _, _ = window
+    try:
+        part = TimingProblem(problem.via_points[first:end + 1], problem.family, problem.limits,
+                             bounds=problem.bounds, objective=problem.objective_name, weights=problem.weights,
+                             min_duration=problem.duration_floor)
+    except PlannerError:  # a window with nothing to time on its own (no limited joint moves in it, ...)
+        return None
+    repaired = part.evaluate(np.array(list(start_shapes(part).values())))
+    nlp = TimingNLP(part, repaired.durations[int(np.argmin(repaired.objective))], ipopt=WINDOW_IPOPT)
+
+    def solved(starts) -> list[tuple[np.ndarray, float]]:
+        """(durations, objective) of each start's solve that ended solved and feasible, repaired."""
+        found = []
+        for start in starts:
+            outcome = nlp.solve(start)
+            result = part.evaluate(outcome.durations[None])
+            if outcome.status in SOLVED and result.feasible[0]:
+                found.append((result.durations[0], float(result.objective[0])))
+        return found
+
+    found = solved(repaired.durations)
+    objectives = [objective for _, objective in found]
+    combined = recombined([durations for durations, _ in found]) \
+        if found and max(objectives) > min(objectives) * (1 + AGREEMENT) else None
+    if combined is not None:  # as ``nlp_refine`` does on the whole problem
+        found += solved(part.evaluate(combined[None]).durations)
+    if not found:
+        return None
+    return min(found, key=lambda item: item[1])[0], chord_segments(part) + first
+
+
+def windowed_start(problem: TimingProblem) -> np.ndarray | None:
+    """Durations (S,) [s] stitched from the cores of ``problem``'s windows (module docstring), not yet
+    repaired; None where a window did not solve, or the time limit ended the windows."""
+    chords = len(problem.via_points) - 1
+    parts = window_spans(chords)
+    solve = functools.partial(_solve_window, problem)
+    workers = min(core_count(), len(parts))
+    remaining = remaining_time()
+    solved = map_forked(solve, parts, workers) if remaining is None else \
+        map_forked_until(solve, parts, workers, time.monotonic() + remaining)
+    whole = chord_segments(problem)
+    stitched = np.full(problem.segment_count, np.nan)
+    for (_, _, core_first, core_end), part in zip(parts, solved):
+        if part is None:
+            return None
+        durations, local = part
+        kept, into = (local >= core_first) & (local < core_end), (whole >= core_first) & (whole < core_end)
+        if kept.sum() != into.sum():  # a window's end chord is a core chord only at the trajectory's ends
+            return None
+        stitched[into] = durations[kept]
+    return stitched if np.all(np.isfinite(stitched)) else None
