@@ -42,7 +42,7 @@ import numpy as np
 import pinocchio as pin
 
 from .errors import InfeasibleError, MissingLimitError, RobotFileError, TaskError
-from .limits import ratio_exceeded
+from .limits import TORQUE_RANGE_NM, ratio_exceeded
 from .read_only import ReadOnlyArrays, freeze_arrays
 from .robot import MAX_PLACEMENT_M, Robot
 from .splines import PiecewisePolynomial
@@ -131,6 +131,14 @@ def torque_limits(robot: Robot, given: np.ndarray | str) -> np.ndarray:
             raise MissingLimitError(f"limits.torque_nm: urdf: robot {robot.name!r} gives joint {joint!r} no effort "
                                     f"(effort = {efforts[missing[0]]:g}); give the torque limits as a list",
                                     joint=joint, quantity="torque", key="limits.torque_nm")
+        low, high = TORQUE_RANGE_NM
+        odd = np.flatnonzero((efforts < low) | (efforts > high))
+        if odd.size:  # as a task's own list is (an effort of 1e300 overflowed, one of 1e-300 held nothing up)
+            joint = robot.joint_names[odd[0]]
+            raise RobotFileError(f"limits.torque_nm: urdf: robot {robot.name!r} gives joint {joint!r} an effort of "
+                                 f"{efforts[odd[0]]:.6g} N m ({robot.urdf_path}); the planner takes {low:g} to "
+                                 f"{high:g} N m: give the torque limits as a list, or correct the URDF",
+                                 path=robot.urdf_path)
         return efforts
     limits = np.asarray(given, dtype=float)
     if len(limits) != robot.dof:

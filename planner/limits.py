@@ -57,6 +57,8 @@ DEGREE_UNITS = tuple(q.degree_unit for q in PROFILE_QUANTITIES)
 #: The range [deg/s^d] any velocity, acceleration or jerk limit may take, in a task file or a robot's
 #: limits file (1e-320 underflowed to 0 and 1e308 overflowed in the arithmetic).
 LIMIT_DEG_RANGE = (1e-12, 1e15)
+#: Every joint torque limit [N m], a task's or a URDF's effort: a micro-actuator's to a large press's.
+TORQUE_RANGE_NM = (1e-6, 1e7)
 #: The one feasibility tolerance: constraint ratios up to 1 + this, positions up to this [rad]
 #: outside their range, count as holding (rounding in the exact checks and in unit conversions,
 #: such as a via-point written as -160 deg against a URDF bound of -2.792526803 rad).

@@ -49,7 +49,7 @@ import numpy as np
 
 from .errors import SHOWN_VALUE_CHARS, InputError, SettingError, TaskError, path_encoding_advice, shown
 from .ik import BRANCH_RULES
-from .limits import LIMIT_DEG_RANGE, LIMITED, PROFILE_QUANTITIES
+from .limits import LIMIT_DEG_RANGE, LIMITED, PROFILE_QUANTITIES, TORQUE_RANGE_NM
 from .read_only import ReadOnlyArrays, freeze_arrays
 from .splines import FAMILIES
 from .timing import OPTIMIZERS, SETTING_RANGES, checked_settings, setting_names
@@ -87,8 +87,7 @@ POSITION_M = Range(-1e4, 1e4)
 #: How far a quaternion's norm may be from 1, and a pose's R^T R from the identity (entrywise), before the
 #: orientation is refused rather than normalised.
 UNIT_TOLERANCE = 1e-3
-#: Every joint torque limit [N m]: a micro-actuator's to a large press's.
-TORQUE_NM = Range(1e-6, 1e7)
+TORQUE_NM = Range(*TORQUE_RANGE_NM)
 #: Allowed values of every single number of a task, by key path; ``bool`` marks a true/false
 #: setting. The ``optimizer.*`` settings are the keyword arguments of the algorithms
 #: (``timing.setting_names``), each with its range here. Upper caps keep memory and run time

@@ -62,6 +62,24 @@ def _child_path(path: str, index) -> str:
     return key_path(path, index.value if isinstance(index, yaml.ScalarNode) else "?")
 
 
+#: The tag of the YAML merge key ``<<``.
+_MERGE_TAG = "tag:yaml.org,2002:merge"
+
+
+def _merged_keys(node: yaml.Node) -> list[yaml.Node]:
+    """The scalar keys a mapping node gives, those of the mappings it merges (``<<``) included."""
+    if not isinstance(node, yaml.MappingNode):
+        return []
+    keys = []
+    for key, value in node.value:
+        if key.tag == _MERGE_TAG:
+            for merged in (value.value if isinstance(value, yaml.SequenceNode) else [value]):
+                keys += _merged_keys(merged)
+        elif isinstance(key, yaml.ScalarNode):
+            keys.append(key)
+    return keys
+
+
 def _where(mark) -> str:
     """A YAML mark as ``line L, column C`` (both from 1)."""
     return f"line {mark.line + 1}, column {mark.column + 1}"
@@ -124,7 +142,25 @@ class _StrictLoader(yaml.SafeLoader):
                 raise TaskError(_child_path(self._paths[-1], key),
                                 f"duplicate key {where}; each key may appear once in a mapping{merge}")
             seen[(key.tag, key.value)] = key
+        for key, value in node.value:
+            if key.tag == _MERGE_TAG and isinstance(value, yaml.SequenceNode):
+                self._refuse_merge_conflicts(value)
         return node
+
+    def _refuse_merge_conflicts(self, merged: yaml.SequenceNode) -> None:
+        """Refuse a key that two of the mappings merged by one ``<<: [*a, *b]`` both give: the YAML merge
+        type lets the first win, PyYAML the last (a velocity limit 60 times lower than the file's reader
+        expects), so which one holds would be a guess."""
+        given: dict[tuple[str, str], yaml.Node] = {}
+        for mapping in merged.value:
+            for key in _merged_keys(mapping):
+                earlier = given.get((key.tag, key.value))
+                if earlier is not None and earlier is not key:
+                    raise TaskError(_child_path(self._paths[-1], key),
+                                    f"given by two mappings merged with << (at {_where(earlier.start_mark)} and "
+                                    f"{_where(key.start_mark)}); merged mappings may not share a key: give it once, "
+                                    f"or after the << (a key of the mapping itself overrides the merged ones)")
+                given[(key.tag, key.value)] = key
 
     def construct_object(self, node, deep=False):
         try:

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from conftest import PENDULUM, UR5_FAST, UR5_PICK_POSES, pendulum, puma_dh_frames
-from planner import InfeasibleError, RobotError, TaskError, paper, plan
+from planner import InfeasibleError, RobotError, RobotFileError, TaskError, paper, plan
 from planner.dynamics import (
     check_times,
     gravity_torques,
@@ -760,3 +760,18 @@ def test_hermite7_with_a_tool_speed_cap_settles_its_robot_model_and_beats_hybrid
     assert result.trajectory.total_time < 0.97 * hybrid.trajectory.total_time
     times = np.linspace(1e-5, result.trajectory.total_time - 1e-5, 20001)
     assert independent_tool_speed(ur5, result.trajectory, times).max() <= 0.25 * (1 + 1e-4)
+
+
+@pytest.mark.parametrize("effort", ["1e300", "1e-300"])
+def test_urdf_efforts_beyond_the_torque_range_are_named_as_a_task_list_is(effort, tmp_path):
+    """``torque_nm: urdf`` took any effort: 1e300 N m overflowed in the slow-down bounds (numpy's warning on a
+    successful run) and 1e-300 was refused over 3.6e-15 N m of rounding (sweep 22). A list gets the range."""
+    urdf = tmp_path / "puma560.urdf"
+    urdf.write_text(PUMA.read_text().replace('effort="97.6"', f'effort="{effort}"', 1))
+    robot = Robot.from_urdf(urdf, "tool")
+    value = re.escape(f"{float(effort):g}")
+    with pytest.raises(RobotFileError, match=rf"limits.torque_nm: urdf: robot 'puma560' gives joint 'joint1' an "
+                                             rf"effort of {value} N m \(.*puma560.urdf\); the planner takes 1e-06 to "
+                                             r"1e\+07 N m: give the torque limits as a list"):
+        torque_limits(robot, "urdf")
+    np.testing.assert_array_equal(torque_limits(robot, [50.0] * 6), [50.0] * 6)  # a list replaces them

@@ -584,3 +584,30 @@ def test_a_later_rounds_program_carries_the_robot_rows_multipliers(tmp_path):
     g_first = first.solver.get_function("nlp_g")(x, model).full().ravel()
     g_second = second.solver.get_function("nlp_g")(carried["x0"], model).full().ravel()
     np.testing.assert_allclose(g_second[second.robot_rows], g_first[first.robot_rows], rtol=1e-12, atol=1e-12)
+
+
+def test_starts_solved_one_after_another_are_not_begun_after_the_time_limit(monkeypatch):
+    """Below ``CONCURRENT_SEGMENTS`` the starts run in this process: 1000 of them (Cuckoo Search's
+    refine_starts) took a 5 s limit to 16 s, the limit looked at only once all were solved (sweep 22)."""
+    import time
+
+    from planner.timing.result import time_limit
+    problem = TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", paper.paper_limits())
+    start = problem.evaluate(np.ones((1, problem.segment_count))).durations[0]
+    solver = nlp.TimingNLP(problem, start)
+    solve = solver.solve
+    begun: list[float] = []
+
+    def slow(durations, report=None):
+        begun.append(time.monotonic())
+        time.sleep(0.05)
+        return solve(durations, report)
+    monkeypatch.setattr(solver, "solve", slow)
+    with time_limit(0.3):
+        limit = time.monotonic() + 0.3
+        outcomes = nlp._solve_all(solver, [start] * 40)
+    assert len(outcomes) == 40 and 1 <= len(begun) < 40
+    assert all(moment <= limit for moment in begun)
+    assert [o.status == nlp.OUT_OF_TIME for o in outcomes] == [False] * len(begun) + [True] * (40 - len(begun))
+    assert outcomes[0].status in SOLVED  # (the last one begun may end at IPOPT's own wall-time limit)
+    np.testing.assert_array_equal(outcomes[-1].durations, start)

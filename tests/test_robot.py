@@ -1,4 +1,5 @@
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -590,3 +591,15 @@ def test_a_joint_name_with_a_control_character_is_refused(tmp_path):
                                              r"its name \(a line break, say\): rename it$"):
         Robot.from_urdf(urdf, "tool")
     assert Robot.from_urdf(urdf, "l1").joint_names == ["j1"]  # off the planned chain: no matter
+
+
+@pytest.mark.parametrize("velocity, shown", [("1e-300", "5.72958e-299"), ("1e300", "5.72958e+301")])
+def test_a_urdf_velocity_beyond_the_planners_range_is_named_with_the_joint(velocity, shown, tmp_path):
+    """A URDF velocity of 1e-300 rad/s was refused only through the trajectory's length it implied (8.7e299 s,
+    'raise the limits'), naming neither the URDF, the joint nor the velocity (sweep 22)."""
+    urdf = tmp_path / "r.urdf"
+    urdf.write_text(ONE_JOINT.format(lower=-3, upper=3, fixed="tool").replace('velocity="2"', f'velocity="{velocity}"'))
+    said = re.escape(f"): joint 'j1' has a velocity limit of {shown} deg/s; the planner takes 1e-12 to 1e+15 deg/s: "
+                     f"correct its <limit velocity=...> in the URDF")
+    with pytest.raises(RobotFileError, match=rf"robot 'r' \(.*r\.urdf{said}"):
+        Robot.from_urdf(urdf, "tool")

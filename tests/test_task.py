@@ -174,6 +174,21 @@ def test_merge_keys_may_be_overridden(tmp_path):
         ("cubic", 50)
 
 
+@pytest.mark.parametrize("merge", ["<<: [{family: cubic}, {family: quintic}]",
+                                   "<<: [&a {family: cubic}, {<<: {family: quintic}}]"])
+def test_a_key_two_merged_mappings_give_is_refused(tmp_path, merge):
+    """The YAML merge type lets the first mapping's win, PyYAML the last's: a velocity limit 60 times lower
+    than the file's reader expects was planned without a word (sweep 22). Either way is a guess: refused,
+    naming both places; the mapping's own key after the << still overrides them."""
+    text = PAPER_JOINT.read_text().replace("trajectory: {family: hybrid}", f"trajectory: {{{merge}}}")
+    assert_refused(lambda: load_task(write(tmp_path, text)),
+                   r"given by two mappings merged with << \(at line \d+, column \d+ and line \d+, column \d+\)",
+                   "trajectory.family")
+    same = PAPER_JOINT.read_text().replace("trajectory: {family: hybrid}",
+                                           "trajectory: {<<: [&a {family: cubic}, *a], sample_rate_hz: 50}")
+    assert load_task(write(tmp_path, same)).family == "cubic"  # one mapping twice: no conflict
+
+
 # Class 2: a boolean is never a number, a number never a boolean, 1.0 no version.
 NUMBER_KEYS = [key for key, rule in RANGES.items() if rule is not bool]
 

@@ -925,10 +925,15 @@ def _towards(problem: TimingProblem, tracker: SearchTracker, outside: np.ndarray
 def _solve_all(nlp: TimingNLP, starts: list[np.ndarray]) -> list[NLPOutcome]:
     """``nlp.solve`` from each start (S,) [s]: where they run side by side (``_concurrent``), one process
     each, ended at the time limit (IPOPT's own limit is checked only between iterations) with an outcome
-    ``OUT_OF_TIME`` at the last round it solved, or at its start; otherwise one after another here."""
+    ``OUT_OF_TIME`` at the last round it solved, or at its start; otherwise one after another here, each
+    start not begun by the time limit ``OUT_OF_TIME`` at its start."""
     processes, remaining = _processes(nlp.problem, len(starts)), remaining_time()
-    if remaining is None or not _concurrent(nlp.problem):
+    if remaining is None:
         return map_forked(nlp.solve, starts, processes)
+    if not _concurrent(nlp.problem):  # one after another here: none begun once the limit has passed (1000
+        # starts of 15 ms each took a 5 s limit to 16 s)
+        return [nlp.solve(start) if remaining_time() != 0.0 else NLPOutcome(start, 0, 0, OUT_OF_TIME, 0)
+                for start in starts]
     nlp.deadline_enforced = True  # each solve runs in a process ended at the limit
     try:
         solved = map_forked_until(nlp.solve, starts, processes, time.monotonic() + remaining)
