@@ -136,7 +136,7 @@ def _replay(args) -> int:
         print(f"{args.recording}: {len(recorded.joint_names)} joints, {len(recorded.times)} samples, "
               f"T = {seconds_text(recorded.trajectory.total_time)} s, largest ratio {_ratio(check.largest_ratio)}, "
               f"samples vs trajectory {check.deviation:.3e} rad (allowed {check.tolerance:.3e}), "
-              f"{', '.join(findings) or 'limits hold'}"
+              f"{', '.join(findings) or 'kinematic limits hold'}"
               + (f"; {' and '.join(skipped)} not written: the check failed" if skipped else ""))
         if not check.passed:
             return 1
@@ -288,19 +288,18 @@ def main(argv=None, *, keep_signal_handlers: bool = False) -> int:
         interrupts.check()  # one a library swallowed ends the command as interrupted, whatever it did
         return code
     except PlannerError as exc:
-        print(f"error: {_printable(str(exc))}", file=sys.stderr)
+        _error_line(f"error: {_printable(str(exc))}")
         return exc.exit_code
     except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
+        _error_line("interrupted")
         return 130
     except Terminated:
-        print("terminated", file=sys.stderr)
+        _error_line("terminated")
         return 143
     except Exception as exc:  # one line for the user; --debug for the traceback
         if debug:
             raise
-        print(_printable(one_line(f"internal error: {type(exc).__name__}: {exc} (run with --debug for details)")),
-              file=sys.stderr)
+        _error_line(_printable(one_line(f"internal error: {type(exc).__name__}: {exc} (run with --debug for details)")))
         return 1
     finally:
         interrupts.finish()  # the command is over: a signal from now on changes nothing
@@ -309,6 +308,16 @@ def main(argv=None, *, keep_signal_handlers: bool = False) -> int:
         if not keep_signal_handlers:
             for number, handler in previous.items():
                 signal.signal(number, handler)
+
+
+def _error_line(text: str) -> None:
+    """``text`` as a line of its own on stderr: on a terminal, a live status line the failure or
+    interruption stopped short is cleared first (the error was appended to it)."""
+    try:
+        clear = "\r\033[K" if sys.stderr.isatty() else ""
+    except (AttributeError, ValueError):  # a closed or replaced stderr
+        clear = ""
+    print(f"{clear}{text}", file=sys.stderr)
 
 
 #: Exit codes of an interrupted command (Ctrl-C, SIGTERM).

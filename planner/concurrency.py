@@ -203,10 +203,10 @@ def _forking() -> Iterator[None]:
 _PR_SET_PDEATHSIG = 1
 
 
-def _end_with(parent: int) -> None:
-    """Have the kernel end this child when process ``parent`` dies (Linux ``prctl``): a parent killed by
-    SIGKILL cleans nothing up, and its output writers kept its folder locked for a second. Elsewhere
-    nothing changes."""
+def end_with(parent: int) -> None:
+    """Have the kernel end this child when process ``parent`` dies (Linux ``prctl``; kept across ``exec``):
+    a parent killed by SIGKILL cleans nothing up, and its output writers kept its folder locked for a
+    second (its headless viewer ran on for good). Elsewhere nothing changes."""
     try:
         prctl = ctypes.CDLL(None, use_errno=True).prctl
     except (AttributeError, OSError):
@@ -248,7 +248,7 @@ def _become_child(parent: int) -> None:
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     if hasattr(signal, "pthread_sigmask"):
         signal.pthread_sigmask(signal.SIG_UNBLOCK, _HANDLED)  # held back by the parent (``_forking``)
-    _end_with(parent)
+    end_with(parent)
 
 
 def _run_and_send(function: Callable, items: list, send) -> None:

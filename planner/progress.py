@@ -28,6 +28,7 @@ class TerminalProgress:
         self.label = label
         self._last = -float("inf")  # the first count shows, however soon after boot (monotonic time)
         self._min_interval = min_interval_s
+        self._open = False  # a status line drawn and not yet ended
 
     def __call__(self, done: int, total: int, best: float) -> None:
         """Show ``done`` of ``total`` iterations and the best objective so far on a live terminal, at most
@@ -44,9 +45,18 @@ class TerminalProgress:
             return
         self._last = now
         self._write(self.status, f"\r{self.label}: {done}/{total} {what}\033[K" + ("\n" if done >= total else ""))
+        self._open = done < total
+
+    def end_line(self) -> None:
+        """Clear a status line left short of its total (a search the time limit stopped), so that what
+        follows starts a line of its own."""
+        if self.live and self._open:
+            self._write(self.status, "\r\033[K")
+        self._open = False
 
     def note(self, message: str) -> None:
-        """A one-off line on stdout: a stage starting or ending."""
+        """A one-off line on stdout: a stage starting or ending (any open status line cleared first)."""
+        self.end_line()
         if self.enabled:
             self._write(self.notes, f"{message}\n")
 

@@ -205,6 +205,7 @@ class Robot:
     @classmethod
     def _build(cls, name, model, tool_frame, urdf_path, package_dirs, extra_limits) -> "Robot":
         frame_names = [f.name for f in model.frames]
+        defaulted = tool_frame is None
         if tool_frame is None:
             tool_frame = frame_names[-1]
         if isinstance(tool_frame, str) and not model.existFrame(tool_frame):  # the same name in another Unicode
@@ -249,7 +250,9 @@ class Robot:
                                         f"<mimic>); coupled joints are not supported: choose a tool frame whose "
                                         f"chain has none", joint=mimics[0])
         if reduced.nq == 0:
-            raise UnsupportedRobotError(f"frame {tool_frame!r} of robot {shown(name)} is not moved by any joint")
+            raise UnsupportedRobotError(f"frame {tool_frame!r} of robot {shown(name)} is not moved by any joint"
+                                        + (" (no robot.tool_frame was given: the model's last frame was taken); "
+                                           "give robot.tool_frame, a frame at the end of the arm" if defaulted else ""))
         _check_placements(reduced, name, Path(urdf_path))
         extra_limits = _file_limits(Path(urdf_path).with_suffix(".limits.yaml"), extra_limits,
                                     list(reduced.names[1:]), list(model.names[1:]))

@@ -8,6 +8,8 @@ says so in one line and writes nothing.
 
 from __future__ import annotations
 
+import functools
+import importlib.util
 import os
 import shutil
 import signal
@@ -18,6 +20,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from .concurrency import end_with
 from .errors import ViewerError, one_line
 
 #: What to install where the viewer finds no graphics adapter.
@@ -52,6 +55,18 @@ def rerun_executable() -> str | None:
     if beside.is_file() and os.access(beside, os.X_OK):
         return str(beside)
     return shutil.which("rerun")
+
+
+def _viewer_program(executable: str) -> str:
+    """The viewer binary itself where ``executable`` is the rerun-sdk package's launcher (a Python script that
+    runs it as a child, which would outlive the launcher ended with this process), else ``executable``."""
+    if Path(executable).parent != Path(sys.executable).parent:  # not this environment's launcher
+        return executable
+    spec = importlib.util.find_spec("rerun_cli")
+    folders = list(spec.submodule_search_locations or []) if spec is not None else []
+    binary = next((Path(folder) / Path(executable).name for folder in folders
+                   if (Path(folder) / Path(executable).name).is_file()), None)
+    return str(binary) if binary is not None and os.access(binary, os.X_OK) else executable
 
 
 def _free_port() -> int:
@@ -103,7 +118,8 @@ def render_screenshot(recording, out: Path, time_s: float) -> None:
         raise ViewerError("no `rerun` program to render with: install the rerun-sdk package "
                               "(pip install rerun-sdk) in this environment, or put its `rerun` on PATH")
     port = _free_port()
-    command = [executable, "--headless", "--port", str(port), "--hide-welcome-screen", "--window-size", WINDOW_SIZE]
+    command = [_viewer_program(executable), "--headless", "--port", str(port), "--hide-welcome-screen",
+               "--window-size", WINDOW_SIZE]
     # The viewer's own scratch files (a rerun-data-* folder it leaves when it is ended) go into a folder
     # removed afterwards.
     with tempfile.TemporaryFile() as log, tempfile.TemporaryDirectory(prefix="planner-viewer-") as scratch:
@@ -111,7 +127,9 @@ def render_screenshot(recording, out: Path, time_s: float) -> None:
         try:
             viewer = subprocess.Popen(command, stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT,
                                       env={**os.environ, "RERUN_APP_ONLY": "true", "TMPDIR": scratch},
-                                      start_new_session=os.name == "posix")
+                                      start_new_session=os.name == "posix",  # ended with this process, even
+                                      preexec_fn=functools.partial(end_with, os.getpid())  # by SIGKILL
+                                      if os.name == "posix" else None)
         except OSError as exc:
             raise ViewerError(f"cannot start Rerun's headless viewer {executable}: {exc}") from None
         try:

@@ -39,6 +39,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import re
 from collections.abc import Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -398,7 +399,11 @@ def _robot(value, path: str, base: Path | None) -> RobotSpec:
     if "name" in section:
         return RobotSpec(None, _text(section["name"], f"{path}.name"), tool)
     given = section["urdf"]  # a path object too, from Python (make_task)
-    urdf = Path(_text(os.fspath(given) if isinstance(given, os.PathLike) else given, f"{path}.urdf"))
+    text = _text(os.fspath(given) if isinstance(given, os.PathLike) else given, f"{path}.urdf")
+    if re.match(r"^[A-Za-z][A-Za-z0-9+.-]*://", text):  # (Path would read package://x as package:/x)
+        raise TaskError(f"{path}.urdf", f"{_said(text)} is a URI; give the URDF as a file path (relative to the task "
+                                        f"file, or absolute): the planner does not resolve package:// or fetch URLs")
+    urdf = Path(text)
     candidates = [urdf] if urdf.is_absolute() else [p for p in ((base / urdf) if base else None, urdf) if p]
     try:
         for candidate in candidates:

@@ -82,6 +82,10 @@ def _text_number_hint(value) -> str:
         finite = math.isfinite(float(value))
     except ValueError:
         return ""
+    if not value.isascii() and value.strip().isascii():  # float() strips any Unicode space: a pasted no-break one
+        spaces = sorted({f"U+{ord(c):04X}" for c in value if not c.isascii()})
+        return f" (a space other than a plain one around the number, {', '.join(spaces)}: write the number alone)" \
+            if finite else ""
     if not value.isascii():  # Python reads other scripts' digits (Arabic-Indic, ...); YAML does not
         return " (digits other than 0-9: write the number with 0-9)" if finite else ""
     return " (text: write the number without quotes)" if finite else ""

@@ -118,11 +118,15 @@ class _StrictLoader(yaml.SafeLoader):
         if len(self._paths) >= MAX_NESTING:
             raise TaskError(path, f"nested deeper than {MAX_NESTING} levels at line {mark.line + 1}")
         self._count(1, path, mark)
+        event = self.peek_event()
+        text = isinstance(event, yaml.ScalarEvent) and event.tag == "!"  # YAML 1.2's non-specific tag: text
         self._paths.append(path)
         try:
             node = super().compose_node(parent, index)
         finally:
             self._paths.pop()
+        if isinstance(node, yaml.ScalarNode) and (text or (node.tag == _MERGE_TAG and index is not None)):
+            node.tag = "tag:yaml.org,2002:str"  # (``! 60`` is "60"; ``<<`` merges only as a key)
         children = node.value if isinstance(node, yaml.SequenceNode) else \
             [child for pair in node.value for child in pair] if isinstance(node, yaml.MappingNode) else ()
         self._sizes[id(node)] = 1 + sum(self._sizes[id(child)] for child in children)
@@ -236,7 +240,7 @@ def _use_core_schema(loader: type[yaml.SafeLoader]) -> None:
             "float": r"[-+]?(\.D|D(\.(D)?)?)([eE][-+]?D)?|[-+]?\.(inf|Inf|INF)|\.(nan|NaN|NAN)".replace(
                 "D", "[0-9]+(_[0-9]+)*"),
             "null": r"~|null|Null|NULL|"}
-    replaced = {f"tag:yaml.org,2002:{name}" for name in (*core, "timestamp")}
+    replaced = {f"tag:yaml.org,2002:{name}" for name in (*core, "timestamp", "value")}  # (YAML 1.1's "=")
     loader.yaml_implicit_resolvers = {first: [(tag, rule) for tag, rule in rules if tag not in replaced]
                                       for first, rules in yaml.SafeLoader.yaml_implicit_resolvers.items()}
     for name, pattern in core.items():

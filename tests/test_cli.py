@@ -1,4 +1,5 @@
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -348,3 +349,27 @@ def test_a_task_file_whose_name_makes_no_output_folder_is_refused(tmp_path, caps
     err = capsys.readouterr().err
     assert err.startswith(f"error: the task file's name '{name}' names no output folder") and err.count("\n") == 1
     assert sorted(p.name for p in tmp_path.iterdir()) == [name]
+
+
+def test_a_status_line_stopped_short_is_cleared_before_a_note_or_an_error(monkeypatch):
+    """A search the time limit stopped, or an interruption, left the live status line open: the next stage
+    note or the one-line error was appended to it ("...best objective 27interrupted", sweep 22)."""
+    import io
+
+    import planner.cli as cli
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    terminal, notes = Terminal(), io.StringIO()
+    progress = TerminalProgress("timing", status=terminal, notes=notes, min_interval_s=0.0)
+    progress(3, 100, 27.0)
+    progress.note("timing 8 via-points: stopped by the time limit")
+    progress.note("writing")  # nothing left to clear
+    assert terminal.getvalue() == "\rtiming: 3/100 iterations, best objective 27\033[K\r\033[K"
+    assert notes.getvalue() == "timing 8 via-points: stopped by the time limit\nwriting\n"
+    stderr = Terminal()
+    monkeypatch.setattr(sys, "stderr", stderr)
+    cli._error_line("interrupted")
+    assert stderr.getvalue() == "\r\033[Kinterrupted\n"

@@ -603,3 +603,18 @@ def test_a_urdf_velocity_beyond_the_planners_range_is_named_with_the_joint(veloc
                      f"correct its <limit velocity=...> in the URDF")
     with pytest.raises(RobotFileError, match=rf"robot 'r' \(.*r\.urdf{said}"):
         Robot.from_urdf(urdf, "tool")
+
+
+def test_a_default_tool_frame_no_joint_moves_says_it_was_a_default(tmp_path):
+    """Without robot.tool_frame the model's last frame is taken; where no joint moves it the error named a
+    frame the user never gave (tiago's 'rgbd_laser_link', sweep 22)."""
+    urdf = tmp_path / "r.urdf"
+    urdf.write_text(ONE_JOINT.format(lower=-3, upper=3, fixed="tool").replace(
+        "</robot>", '<link name="stand"/><joint name="s" type="fixed"><parent link="base"/><child link="stand"/>'
+                    '</joint></robot>'))
+    with pytest.raises(UnsupportedRobotError, match=r"frame 'stand' of robot 'r' is not moved by any joint \(no "
+                                                    r"robot\.tool_frame was given: the model's last frame was taken\); "
+                                                    r"give robot\.tool_frame"):
+        Robot.from_urdf(urdf, None)
+    with pytest.raises(UnsupportedRobotError, match=r"frame 'stand' of robot 'r' is not moved by any joint$"):
+        Robot.from_urdf(urdf, "stand")

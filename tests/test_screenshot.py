@@ -4,7 +4,13 @@ The rendering test needs a graphics adapter (a GPU, or Mesa's software Vulkan dr
 mesa-vulkan-drivers); where there is none it is skipped, saying why. The failure paths run everywhere.
 """
 
+import os
 import re
+import signal
+import socket
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -153,3 +159,49 @@ def test_the_end_as_the_outputs_print_it_is_the_end(recording, tmp_path, monkeyp
         assert main(["replay", str(recording), "--screenshot", str(tmp_path / "s.png"), "--time", repr(at),
                      "--force"]) == 0
     assert asked == [total, total]
+
+
+def _viewers_of(port_marker: str) -> list[int]:
+    """Pids of the processes whose command line holds ``port_marker`` (the headless viewer's --port)."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                command = (entry / "cmdline").read_bytes().split(b"\0")
+                state = (entry / "stat").read_text().rsplit(")", 1)[1].split()[0]
+            except OSError:
+                continue
+            if b"--headless" in command and port_marker.encode() in command and state != "Z":
+                found.append(int(entry.name))
+    return found
+
+
+@pytest.mark.skipif(not Path("/proc/self/cmdline").exists(), reason="reads /proc")
+def test_a_replay_killed_outright_takes_its_headless_viewer_with_it(recording, tmp_path):
+    """``kill -9`` on replay --screenshot (the OOM killer, a CI timeout's second stage) left the viewer running
+    for good, re-parented to init: the launcher it started ran the viewer as a child of its own (sweep 22)."""
+    from planner.screenshot import rerun_executable
+    if rerun_executable() is None:
+        pytest.skip("no `rerun` program here")
+    probe = ("import planner.screenshot as s, sys; s._free_port = lambda: int(sys.argv[1]); "
+             "from planner.cli import main; main(['replay', sys.argv[2], '--screenshot', sys.argv[3]])")
+    with socket.socket() as free:
+        free.bind(("127.0.0.1", 0))
+        port = str(free.getsockname()[1])
+    replay = subprocess.Popen([sys.executable, "-c", probe, port, str(recording), str(tmp_path / "s.png")],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 20
+    while not _viewers_of(port) and time.monotonic() < deadline and replay.poll() is None:
+        time.sleep(0.05)
+    if not _viewers_of(port):
+        replay.kill()
+        pytest.skip("the viewer did not start here")
+    replay.send_signal(signal.SIGKILL)
+    replay.wait()
+    deadline = time.monotonic() + 5
+    while _viewers_of(port) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    left = _viewers_of(port)
+    for pid in left:  # (not to leave them to the next test)
+        os.kill(pid, signal.SIGKILL)
+    assert left == []

@@ -359,6 +359,8 @@ def test_lists_and_mappings_are_not_names(where, value):
     ("trajectory.sample_rate_hz", "1e3", r"must be a number, got '1e3' \(text: write the number without quotes\)$"),
     ("trajectory.sample_rate_hz", "\u0664\u0660", r"must be a number, got '.*' \(digits other than 0-9: write the "
                                                 r"number with 0-9\)$"),
+    ("trajectory.sample_rate_hz", "\u00a060", r"must be a number, got '.*' \(a space other than a plain one around "
+                                             r"the number, U\+00A0: write the number alone\)$"),  # (sweep 22)
     ("trajectory.sample_rate_hz", 1e6, r"must be > 0 and <= 100000, got 1000000.0$"),
     ("trajectory.min_segment_s", 0, r"must be > 0 and <= 10, got 0$"),
     ("optimizer.weights[0]", 0, r"must be >= 1e-06 and <= 1e\+06, got 0$"),
@@ -724,3 +726,27 @@ def test_a_task_changed_by_hand_gets_the_task_files_errors_for_its_optimizer():
     with pytest.raises(TaskError, match=r"^optimizer.bounds_s: is no field of a Task's optimizer \(it holds "
                                         r"algorithm, seed, bounds, objective, weights, time_limit, settings"):
         check_task(dataclasses.replace(task, optimizer={**task.optimizer, "bounds_s": [5, 3]}))
+
+
+@pytest.mark.parametrize("uri", ["package://arm/urdf/arm.urdf", "http://example.com/arm.urdf", "file:///tmp/arm.urdf"])
+def test_a_urdf_given_as_a_uri_is_named_as_one(uri):
+    """``package://x/y.urdf`` was "file not found: package:/x/y.urdf": the path misquoted, no word that only
+    file paths are taken (sweep 22)."""
+    with pytest.raises(TaskError, match=rf"^robot\.urdf: {re.escape(uri)} is a URI; give the URDF as a file path"):
+        parse_task({"version": 1, "robot": {"urdf": uri, "tool_frame": "tool"},
+                    "waypoints": {"joints_deg": [[0], [1]]}})
+
+
+@pytest.mark.parametrize("text, read", [("name: =\n", "="), ("name: <<\n", "<<"), ("name: ! 12\n", "12")])
+def test_plain_values_read_as_yaml_1_2_text(tmp_path, text, read):
+    """``=`` and ``<<`` as values were "not valid YAML" (YAML 1.1's value and merge tags), and ``! 60`` was a
+    number where YAML 1.2's non-specific tag makes it text (sweep 22)."""
+    task = write(tmp_path, PAPER_JOINT.read_text().replace("name: puma560_paper_joint\n", text))
+    assert load_task(task).name == read
+
+
+def test_a_number_tagged_as_text_is_refused_as_text(tmp_path):
+    text = PAPER_JOINT.read_text().replace("trajectory: {family: hybrid}",
+                                           "trajectory: {family: hybrid, sample_rate_hz: ! 50}")
+    assert_refused(lambda: load_task(write(tmp_path, text)), r"must be a number, got '50' \(text",
+                   "trajectory.sample_rate_hz")

@@ -47,8 +47,9 @@ def test_the_stitched_start_is_each_windows_own_optimum_in_its_core(small_window
     via, _ = clipped_walk(72, 7)  # (the ranges not enforced: scripts/bench_scale.py's clipped class)
     limits = paper.paper_limits()
     problem = TimingProblem(via, family, limits, min_duration=1e-3)
-    stitched = windowed_start(problem)
-    assert stitched is not None and stitched.shape == (problem.segment_count,)
+    found = windowed_start(problem)
+    assert found is not None and found[0].shape == (problem.segment_count,) and found[1] > 0
+    stitched = found[0]
     whole = chord_segments(problem)
     parts = window_spans(len(problem.via_points) - 1)
     assert len(parts) == 5
@@ -71,6 +72,7 @@ def test_the_whole_nlp_from_the_stitched_windows_reaches_the_shapes_optimum(smal
     assert [start.label for start in result.starts] == ["windows"]
     assert result.starts[0].status == "Solve_Succeeded" and result.feasible
     assert result.settings["windows"]["count"] == 5 and result.settings["starts"] == ["windows"]
+    assert result.settings["windows"]["iterations"] > result.starts[0].iterations
     assert "stitched solutions of its windows" in result.stop_reason
     monkeypatch.setattr(windows_module, "WINDOWED_SEGMENTS", 10**6)
     shapes = optimize(problem, "nlp")

@@ -47,13 +47,14 @@ def shape_starts(problem: TimingProblem, *, seed: int | None = None,
     """The sparse NLP from the cheap shapes of ``starts.py`` (deterministic; ``seed`` is ignored)."""
     tracker = SearchTracker(problem, progress, 1)
     shapes = start_shapes(problem)
-    stitched = windowed_start(problem) if windowed(problem) else None
+    found = windowed_start(problem) if windowed(problem) else None
+    stitched = None if found is None else found[0]
     settings: dict = {}
-    if stitched is not None:
-        nlp_refine(problem, {WINDOWS: stitched}, tracker, STITCHED_IPOPT)
+    if found is not None:
+        nlp_refine(problem, {WINDOWS: found[0]}, tracker, STITCHED_IPOPT)
         settings["windows"] = {"count": len(window_spans(len(problem.via_points) - 1)), "chords": WINDOW_CHORDS,
                                "margin": WINDOW_MARGIN, "ipopt": _options(WINDOW_IPOPT),
-                               "stitched_ipopt": _options(STITCHED_IPOPT)}
+                               "stitched_ipopt": _options(STITCHED_IPOPT), "iterations": found[1]}
     if stitched is not None and any(start.status in SOLVED and start.feasible for start in tracker.starts):
         shapes = {WINDOWS: stitched}
     else:  # no windows, or their start did not solve: the shapes themselves

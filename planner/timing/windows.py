@@ -66,10 +66,10 @@ def windowed(problem: TimingProblem) -> bool:
 
 
 def _solve_window(problem: TimingProblem, window: tuple[int, int, int, int],
-                  report: Callable | None = None) -> tuple[np.ndarray, np.ndarray] | None:
+                  report: Callable | None = None) -> tuple[np.ndarray, np.ndarray, int] | None:
     """The durations (S_w,) [s] of one window's NLP (``window_spans``), the best of its two shapes' solves
-    and, where they differ, their recombination's (``starts.recombined``; repaired: feasible and tight), and
-    the chord of ``problem`` each of its segments belongs to (S_w,);
+    and, where they differ, their recombination's (``starts.recombined``; repaired: feasible and tight), the
+    chord of ``problem`` each of its segments belongs to (S_w,), and IPOPT's iterations over its solves;
     None where neither solved. (``report``: ``map_forked_until``'s, unused: a window is whole or nothing.)"""
     first, end, _, _ = window
     try:
@@ -81,11 +81,15 @@ def _solve_window(problem: TimingProblem, window: tuple[int, int, int, int],
     repaired = part.evaluate(np.array(list(start_shapes(part).values())))
     nlp = TimingNLP(part, repaired.durations[int(np.argmin(repaired.objective))], ipopt=WINDOW_IPOPT)
 
+    iterations = 0
+
     def solved(starts) -> list[tuple[np.ndarray, float]]:
         """(durations, objective) of each start's solve that ended solved and feasible, repaired."""
+        nonlocal iterations
         found = []
         for start in starts:
             outcome = nlp.solve(start)
+            iterations += outcome.iterations
             result = part.evaluate(outcome.durations[None])
             if outcome.status in SOLVED and result.feasible[0]:
                 found.append((result.durations[0], float(result.objective[0])))
@@ -99,12 +103,13 @@ def _solve_window(problem: TimingProblem, window: tuple[int, int, int, int],
         found += solved(part.evaluate(combined[None]).durations)
     if not found:
         return None
-    return min(found, key=lambda item: item[1])[0], chord_segments(part) + first
+    return min(found, key=lambda item: item[1])[0], chord_segments(part) + first, iterations
 
 
-def windowed_start(problem: TimingProblem) -> np.ndarray | None:
+def windowed_start(problem: TimingProblem) -> tuple[np.ndarray, int] | None:
     """Durations (S,) [s] stitched from the cores of ``problem``'s windows (module docstring), not yet
-    repaired; None where a window did not solve, or the time limit ended the windows."""
+    repaired, and IPOPT's iterations over every window's solves; None where a window did not solve, or the
+    time limit ended the windows."""
     chords = len(problem.via_points) - 1
     parts = window_spans(chords)
     solve = functools.partial(_solve_window, problem)
@@ -117,9 +122,11 @@ def windowed_start(problem: TimingProblem) -> np.ndarray | None:
     for (_, _, core_first, core_end), part in zip(parts, solved):
         if part is None:
             return None
-        durations, local = part
+        durations, local, _ = part
         kept, into = (local >= core_first) & (local < core_end), (whole >= core_first) & (whole < core_end)
         if kept.sum() != into.sum():  # a window's end chord is a core chord only at the trajectory's ends
             return None
         stitched[into] = durations[kept]
-    return stitched if np.all(np.isfinite(stitched)) else None
+    if not np.all(np.isfinite(stitched)):
+        return None
+    return stitched, sum(part[2] for part in solved if part is not None)
