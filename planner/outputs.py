@@ -42,12 +42,15 @@ from __future__ import annotations
 import ctypes
 import errno
 import fcntl
+import glob
 import json
 import os
+import re
 import secrets
 import shutil
 import stat
 import sys
+import time
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterable, Iterator
@@ -522,6 +525,31 @@ def _check_file(target: Path, force: bool) -> Path:
     return target
 
 
+#: The part of a temporary output file's name (``.NAME.XXXXXXXX.tmp``) after ``.NAME.``.
+_STALE_TEMPORARY = re.compile(r"[0-9a-f]{8}\.tmp")
+#: A file a run holds locked is left alone for this long [s] after it was last changed, however it looks:
+#: between its creation and its lock another run could otherwise take it for abandoned.
+ABANDONED_AFTER_S = 60.0
+
+
+def abandoned(path: Path) -> bool:
+    """Whether the file at ``path`` was left by a run that ended without removing it (killed outright): no
+    process holds its ``flock`` and it has not changed for ``ABANDONED_AFTER_S``."""
+    try:
+        if time.time() - path.lstat().st_mtime < ABANDONED_AFTER_S or not path.is_file():
+            return False
+        handle = os.open(path, os.O_RDONLY)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        return True
+    except OSError:
+        return False
+    finally:
+        os.close(handle)
+
+
 @contextmanager
 def atomic_file(path, *, force: bool = False) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; on success rename it to ``path``, else delete it
@@ -538,14 +566,19 @@ def atomic_file(path, *, force: bool = False) -> Iterator[Path]:
     published = False
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
+        for stale in target.parent.glob(f".{glob.escape(target.name)}.*.tmp"):  # a run killed outright left it
+            if _STALE_TEMPORARY.fullmatch(stale.name[len(target.name) + 2:]) and abandoned(stale):
+                stale.unlink(missing_ok=True)
         temporary = target.parent / f".{target.name}.{secrets.token_hex(4)}.tmp"
-        os.close(os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+        held = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
         try:
+            fcntl.flock(held, fcntl.LOCK_EX)  # held while the file is ours: ``abandoned`` once we are gone
             yield temporary
             check_interrupted()  # one a library swallowed (an import's weakref callback) must not publish the file
             os.replace(temporary, target)
             published = True
         finally:
+            os.close(held)
             temporary.unlink(missing_ok=True)
     except OSError as exc:
         raise OutputError(f"output file {shown(str(target))}: cannot write it ({exc.strerror or exc})") from None

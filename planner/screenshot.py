@@ -8,6 +8,7 @@ says so in one line and writes nothing.
 
 from __future__ import annotations
 
+import fcntl
 import functools
 import importlib.util
 import os
@@ -22,6 +23,7 @@ from pathlib import Path
 
 from .concurrency import end_with
 from .errors import ViewerError, one_line
+from .outputs import abandoned
 
 #: What to install where the viewer finds no graphics adapter.
 ADAPTER_HINT = ("install a Vulkan driver (Debian/Ubuntu: apt-get install mesa-vulkan-drivers, a software "
@@ -55,6 +57,19 @@ def rerun_executable() -> str | None:
     if beside.is_file() and os.access(beside, os.X_OK):
         return str(beside)
     return shutil.which("rerun")
+
+
+#: The viewer's scratch folder (its TMPDIR) in the system's temporary folder, and the file a replay holds
+#: locked in it while it runs.
+SCRATCH_PREFIX = "planner-viewer-"
+SCRATCH_LOCK = ".planner.lock"
+
+
+def remove_abandoned_scratch() -> None:
+    """Remove the viewer scratch folders that replays killed outright left (``outputs.abandoned``)."""
+    for stale in Path(tempfile.gettempdir()).glob(f"{SCRATCH_PREFIX}*"):
+        if abandoned(stale / SCRATCH_LOCK):
+            shutil.rmtree(stale, ignore_errors=True)
 
 
 def _viewer_program(executable: str) -> str:
@@ -122,7 +137,10 @@ def render_screenshot(recording, out: Path, time_s: float) -> None:
                "--window-size", WINDOW_SIZE]
     # The viewer's own scratch files (a rerun-data-* folder it leaves when it is ended) go into a folder
     # removed afterwards.
-    with tempfile.TemporaryFile() as log, tempfile.TemporaryDirectory(prefix="planner-viewer-") as scratch:
+    remove_abandoned_scratch()
+    with tempfile.TemporaryFile() as log, tempfile.TemporaryDirectory(prefix=SCRATCH_PREFIX) as scratch, \
+            open(Path(scratch) / SCRATCH_LOCK, "w") as held:
+        fcntl.flock(held, fcntl.LOCK_EX)  # while the folder is in use (``outputs.abandoned``)
         started = time.monotonic()
         try:
             viewer = subprocess.Popen(command, stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT,

@@ -657,3 +657,24 @@ def test_an_interruption_before_publishing_publishes_nothing(tmp_path):
     finally:
         interrupts.reset()
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_file_is_abandoned_only_once_unlocked_and_a_minute_unchanged(tmp_path):
+    """What a run killed outright leaves (a temporary output file, the viewer's scratch folder's lock) is
+    removed by later runs only when no process holds its lock and it is a minute old (sweep 22)."""
+    import fcntl
+    path = tmp_path / ".x.png.0123abcd.tmp"
+    path.write_bytes(b"")
+    assert not outputs.abandoned(path)  # just made: its maker may not hold the lock yet
+    long_ago = time.time() - outputs.ABANDONED_AFTER_S - 1
+    os.utime(path, (long_ago, long_ago))
+    held = os.open(path, os.O_RDONLY)
+    fcntl.flock(held, fcntl.LOCK_EX)
+    try:
+        assert not outputs.abandoned(path)  # a live run's
+    finally:
+        os.close(held)
+    assert outputs.abandoned(path) and not outputs.abandoned(tmp_path / "missing")
+    with atomic_file(tmp_path / "x.png") as temporary:  # a new run of the same file removes it
+        temporary.write_bytes(b"png")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x.png"]

@@ -10,6 +10,7 @@ import signal
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -17,6 +18,7 @@ import numpy as np
 import pytest
 
 from planner.cli import main
+from planner.outputs import atomic_file
 from planner.pipeline import plan
 from planner.recording import write_recording
 
@@ -196,6 +198,8 @@ def test_a_replay_killed_outright_takes_its_headless_viewer_with_it(recording, t
     if not _viewers_of(port):
         replay.kill()
         pytest.skip("the viewer did not start here")
+    environment = (Path("/proc") / str(_viewers_of(port)[0]) / "environ").read_bytes().split(b"\0")
+    scratch = Path(next(item for item in environment if item.startswith(b"TMPDIR="))[7:].decode())
     replay.send_signal(signal.SIGKILL)
     replay.wait()
     deadline = time.monotonic() + 5
@@ -205,3 +209,20 @@ def test_a_replay_killed_outright_takes_its_headless_viewer_with_it(recording, t
     for pid in left:  # (not to leave them to the next test)
         os.kill(pid, signal.SIGKILL)
     assert left == []
+    # Its temporary screenshot and the viewer's scratch folder stay; runs after it remove them once they are
+    # abandoned: no process holds them, and a minute has passed.
+    from planner.outputs import ABANDONED_AFTER_S
+    from planner.screenshot import SCRATCH_LOCK, SCRATCH_PREFIX, remove_abandoned_scratch
+    temporaries = list(tmp_path.glob(".s.png.*.tmp"))
+    assert len(temporaries) == 1 and scratch.name.startswith(SCRATCH_PREFIX) and (scratch / SCRATCH_LOCK).is_file()
+    assert scratch.parent == Path(tempfile.gettempdir())
+    remove_abandoned_scratch()
+    assert scratch.exists()  # too recent to tell from one being made
+    long_ago = time.time() - ABANDONED_AFTER_S - 1
+    for path in temporaries + [scratch / SCRATCH_LOCK]:
+        os.utime(path, (long_ago, long_ago))
+    remove_abandoned_scratch()
+    assert not scratch.exists()
+    with atomic_file(tmp_path / "s.png") as temporary:
+        temporary.write_bytes(b"png")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.png"]

@@ -89,3 +89,13 @@ def test_a_window_that_does_not_solve_leaves_the_shapes_to_start_from(small_wind
     result = optimize(problem, "nlp")
     assert [start.label for start in result.starts][:2] == ["cruise", "stop-at-turns"] and result.feasible
     assert "windows" not in result.settings
+
+
+def test_a_time_limit_that_ends_the_windows_returns_a_feasible_timing(small_windows):
+    """The windows run in processes ended at the time limit: the run then stops with the repaired shapes,
+    feasible, and says the limit stopped it."""
+    via, _ = clipped_walk(72, 7)
+    problem = TimingProblem(via, "hybrid", paper.paper_limits(), min_duration=1e-3)
+    result = optimize(problem, "nlp", time_limit_s=0.05)
+    assert result.feasible and result.out_of_time and "time limit" in result.stop_reason
+    assert "windows" not in result.settings
