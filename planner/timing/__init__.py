@@ -25,16 +25,7 @@ from .result import (
     time_limit,
 )
 from .starts import start_shapes
-from .windows import (
-    STITCHED_IPOPT,
-    WINDOW_CHORDS,
-    WINDOW_IPOPT,
-    WINDOW_MARGIN,
-    WINDOWS,
-    window_spans,
-    windowed,
-    windowed_start,
-)
+from .windows import STITCHED_IPOPT, WINDOWS, window_settings, windowed, windowed_start
 
 #: The start ``shape_starts`` adds where no shape's NLP solved (``result.SOLVED``): equal durations.
 UNIFORM = "uniform"
@@ -52,9 +43,7 @@ def shape_starts(problem: TimingProblem, *, seed: int | None = None,
     settings: dict = {}
     if found is not None:
         nlp_refine(problem, {WINDOWS: found[0]}, tracker, STITCHED_IPOPT)
-        settings["windows"] = {"count": len(window_spans(len(problem.via_points) - 1)), "chords": WINDOW_CHORDS,
-                               "margin": WINDOW_MARGIN, "ipopt": _options(WINDOW_IPOPT),
-                               "stitched_ipopt": _options(STITCHED_IPOPT), "iterations": found[1]}
+        settings["windows"] = window_settings(problem, found[1])
     if stitched is not None and any(start.status in SOLVED and start.feasible for start in tracker.starts):
         shapes = {WINDOWS: stitched}
     else:  # no windows, or their start did not solve: the shapes themselves
@@ -72,10 +61,6 @@ def shape_starts(problem: TimingProblem, *, seed: int | None = None,
     return tracker.result("nlp", f"NLP from {origin}{_unconverged(tracker.starts)}", None,
                           {"starts": list(shapes), "nlp": nlp_settings(problem, len(shapes)), **settings})
 
-
-def _options(ipopt: dict) -> dict:
-    """IPOPT options as ``summary.json`` records them (without CasADi's ``ipopt.`` prefix)."""
-    return {key.removeprefix("ipopt."): value for key, value in ipopt.items()}
 
 
 def _unconverged(starts: list[StartReport]) -> str:

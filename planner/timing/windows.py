@@ -59,6 +59,14 @@ def window_spans(chords: int) -> list[tuple[int, int, int, int]]:
             for low, high in zip(edges[:-1], edges[1:])]
 
 
+def window_settings(problem: TimingProblem, iterations: int) -> dict:
+    """What ``summary.json`` records of ``problem``'s windowed start, whose windows took ``iterations``."""
+    def options(ipopt: dict) -> dict:
+        return {key.removeprefix("ipopt."): value for key, value in ipopt.items()}
+    return {"count": len(window_spans(len(problem.via_points) - 1)), "chords": WINDOW_CHORDS, "margin": WINDOW_MARGIN,
+            "ipopt": options(WINDOW_IPOPT), "stitched_ipopt": options(STITCHED_IPOPT), "iterations": iterations}
+
+
 def windowed(problem: TimingProblem) -> bool:
     """Whether ``problem`` starts from its windows: long enough, and of a family whose limits the NLP bounds
     without cut rounds (``quintic`` and ``hermite7`` take rounds of solves in every window)."""
