@@ -3,12 +3,13 @@
 On a long trajectory the durations of one region hardly depend on those far
 away (the spline's knot states couple neighbouring segments, and that coupling
 decays within a few segments), but IPOPT's path on the whole problem is long:
-clipped random walks of 1024 via-points took 40 to 150 iterations per start at
+clipped random walks of 1024 via-points took 27 to 147 iterations per start at
 about 40 ms each, and the two starts could end 0.1 to 1 % apart. Solved on
 windows of ``WINDOW_CHORDS`` chords instead (each from both cheap shapes of
-``starts.py``, to a looser tolerance, the better kept), the durations of each
-window's core, its chords but ``WINDOW_MARGIN`` at either end, are stitched;
-the whole NLP then solves from there in 12 to 18 iterations.
+``starts.py`` and, where they differ, their recombination, to a looser
+tolerance, the best kept), the durations of each window's core, its chords but
+``WINDOW_MARGIN`` at either end, are stitched; the whole NLP then solves from
+there in 12 to 18 iterations. The windows run side by side, one process per core.
 
 Windows. The chords 0 .. C-1 are split into k = ceil(C / core) cores of near
 equal length, core = ``WINDOW_CHORDS`` - 2 ``WINDOW_MARGIN``; window i spans its
