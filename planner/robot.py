@@ -257,7 +257,7 @@ class Robot:
         extra_limits = _file_limits(Path(urdf_path).with_suffix(".limits.yaml"), extra_limits,
                                     list(reduced.names[1:]), list(model.names[1:]))
         velocity = np.where(reduced.velocityLimit > 0, reduced.velocityLimit, np.inf)
-        _check_urdf_values(np.rad2deg(velocity), "velocity", "deg/s", reduced, name, Path(urdf_path))
+        _check_urdf_velocities(np.rad2deg(velocity), reduced, name, Path(urdf_path))
         # <limit lower="0" upper="0" velocity="0"/>: an exporter's placeholder, not a joint that cannot move
         unset = (reduced.lowerPositionLimit == 0) & (reduced.upperPositionLimit == 0)
         lower = np.where(np.isfinite(reduced.lowerPositionLimit) & ~unset, reduced.lowerPositionLimit, -np.inf)
@@ -275,22 +275,21 @@ class Robot:
                    Path(urdf_path), package_dirs, placeholder, unset_range, missing, held, file_digest(Path(urdf_path)))
 
 
-def _check_urdf_values(values: np.ndarray, what: str, unit: str, model: pin.Model, name: str, path: Path,
-                       allowed: tuple[float, float] = LIMIT_DEG_RANGE) -> None:
-    """Refuse a URDF limit (per joint of ``model``, in ``unit``; inf where the URDF gives none) outside the
-    range a task file's own value of it must be in (``allowed``): a velocity of 1e-300 rad/s was named
-    by none of the URDF, the joint or the velocity, only by the trajectory's length it implied.
+def _check_urdf_velocities(velocity: np.ndarray, model: pin.Model, name: str, path: Path) -> None:
+    """Refuse a URDF velocity limit (per joint of ``model`` [deg/s]; inf where the URDF gives none) outside the
+    range a task file's own velocity limit must be in (``LIMIT_DEG_RANGE``): a velocity of 1e-300 rad/s was
+    named by none of the URDF, the joint or the velocity, only by the trajectory's length it implied.
 
     Raises:
         RobotFileError: naming the robot, the URDF, the joint, the value and the range.
     """
-    low, high = allowed
-    bad = np.flatnonzero(np.isfinite(values) & ((values < low) | (values > high)))
+    low, high = LIMIT_DEG_RANGE
+    bad = np.flatnonzero(np.isfinite(velocity) & ((velocity < low) | (velocity > high)))
     if bad.size:
         j = int(bad[0])
-        raise RobotFileError(f"robot {shown(name)} ({path}): joint {model.names[j + 1]!r} has a {what} limit of "
-                             f"{values[j]:.6g} {unit}; the planner takes {low:g} to {high:g} {unit}: correct "
-                             f"its <limit {what}=...> in the URDF", path=path)
+        raise RobotFileError(f"robot {shown(name)} ({path}): joint {model.names[j + 1]!r} has a velocity limit of "
+                             f"{velocity[j]:.6g} deg/s; the planner takes {low:g} to {high:g} deg/s: correct "
+                             f"its <limit velocity=...> in the URDF", path=path)
 
 
 def file_digest(path: Path) -> str:

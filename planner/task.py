@@ -88,6 +88,7 @@ POSITION_M = Range(-1e4, 1e4)
 #: How far a quaternion's norm may be from 1, and a pose's R^T R from the identity (entrywise), before the
 #: orientation is refused rather than normalised.
 UNIT_TOLERANCE = 1e-3
+#: Every joint torque limit [N m] (``limits.TORQUE_RANGE_NM``).
 TORQUE_NM = Range(*TORQUE_RANGE_NM)
 #: Allowed values of every single number of a task, by key path; ``bool`` marks a true/false
 #: setting. The ``optimizer.*`` settings are the keyword arguments of the algorithms

@@ -53,6 +53,7 @@ def test_starts_that_end_apart_are_recombined_and_solved_once_more(monkeypatch):
     and an unsolved one; the recombination, given the two solved ones repaired, returns the optimum, which
     the stub solve returns as solved."""
     import planner.timing.nlp as nlp
+    import planner.timing.starts as starts_module
     from planner.timing.result import SearchTracker
 
     problem = TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", paper.paper_limits())
@@ -72,7 +73,7 @@ def test_starts_that_end_apart_are_recombined_and_solved_once_more(monkeypatch):
         return optimum
 
     monkeypatch.setattr(nlp, "_solve_all", solve_all)
-    monkeypatch.setattr(nlp, "recombined", recombine)
+    monkeypatch.setattr(starts_module, "recombined", recombine)
     tracker = SearchTracker(problem)
     nlp.nlp_refine(problem, {label: optimum for label in ("a", "b", "c")}, tracker)
     assert [start.label for start in tracker.starts] == ["a", "b", "c", "recombined"]
@@ -88,13 +89,15 @@ def test_starts_that_end_apart_are_recombined_and_solved_once_more(monkeypatch):
 def test_starts_that_agree_are_not_recombined(monkeypatch):
     """Solved starts within AGREEMENT of each other: no recombination, no fourth solve."""
     import planner.timing.nlp as nlp
+    import planner.timing.starts as starts_module
     from planner.timing.result import SearchTracker
 
     problem = TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", paper.paper_limits())
     optimum = optimize(problem, "nlp").durations
     monkeypatch.setattr(nlp, "_solve_all", lambda _, starts: [nlp.NLPOutcome(optimum, 5, 1, "Solve_Succeeded", 0)
                                                                 for _ in starts])
-    monkeypatch.setattr(nlp, "recombined", lambda solutions: pytest.fail("recombined where the starts agree"))
+    monkeypatch.setattr(starts_module, "recombined",
+                        lambda solutions: pytest.fail("recombined where the starts agree"))
     tracker = SearchTracker(problem)
     nlp.nlp_refine(problem, {"a": optimum, "b": optimum}, tracker)
     assert [start.label for start in tracker.starts] == ["a", "b"]

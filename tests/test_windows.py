@@ -9,6 +9,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import planner.timing as timing_module
+import planner.timing.starts as starts_module
 import planner.timing.windows as windows_module
 from conftest import clipped_walk
 from planner import paper
@@ -164,7 +165,7 @@ def window(monkeypatch):
         calls.append(solutions)
         return 3 * solutions[0]
     monkeypatch.setattr(windows_module, "TimingNLP", _ScriptedNLP)
-    monkeypatch.setattr(windows_module, "recombined", spy)
+    monkeypatch.setattr(starts_module, "recombined", spy)
     _ScriptedNLP.made, _ScriptedNLP.starts, _ScriptedNLP.script = [], [], []
     shapes = problem.evaluate(np.array(list(start_shapes(problem).values())))
     return problem, (0, len(via) - 1, 0, len(via) - 1), calls, shapes

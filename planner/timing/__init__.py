@@ -39,13 +39,12 @@ def shape_starts(problem: TimingProblem, *, seed: int | None = None,
     tracker = SearchTracker(problem, progress, 1)
     shapes = start_shapes(problem)
     found = windowed_start(problem) if windowed(problem) else None
-    stitched = None if found is None else found[0]
     settings: dict = {}
     if found is not None:
         nlp_refine(problem, {WINDOWS: found[0]}, tracker, STITCHED_IPOPT)
         settings["windows"] = window_settings(problem, found[1])
-    if stitched is not None and any(start.status in SOLVED and start.feasible for start in tracker.starts):
-        shapes = {WINDOWS: stitched}
+    if found is not None and any(start.status in SOLVED and start.feasible for start in tracker.starts):
+        shapes = {WINDOWS: found[0]}
     else:  # no windows, or their start did not solve: the shapes themselves
         nlp_refine(problem, shapes, tracker)
     if not any(start.status in SOLVED for start in tracker.starts):

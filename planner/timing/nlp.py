@@ -88,7 +88,7 @@ from ..limits import FEASIBILITY_TOLERANCE, ratio_exceeded
 from ..native_output import stderr_captured
 from .formulations import FORMULATIONS, Scales, SegmentBlock
 from .problem import TimingProblem
-from .result import AGREEMENT, SOLVED, SearchTracker, StartReport, remaining_time
+from .result import SOLVED, SearchTracker, StartReport, remaining_time
 from .robot_rows import (
     MODEL_TOLERANCE,
     SAMPLES_PER_SEGMENT,
@@ -102,7 +102,7 @@ from .robot_rows import (
     sample_points,
     spline_states,
 )
-from .starts import recombined
+from .starts import recombination
 
 log = logging.getLogger(__name__)
 
@@ -876,9 +876,7 @@ def nlp_refine(problem: TimingProblem, starts: dict[str, np.ndarray], tracker: S
     solved = _report_all(tracker, labels, _solve_all(nlp, list(repaired.durations)))
     kept = [(durations, report.objective) for durations, report in solved
             if report.status in SOLVED and report.feasible]
-    objectives = [objective for _, objective in kept]
-    start = recombined([durations for durations, _ in kept]) \
-        if kept and max(objectives) > min(objectives) * (1 + AGREEMENT) else None  # agreeing starts: nothing to gain
+    start = recombination(kept)
     if start is not None:
         _report_all(tracker, ["recombined"], _solve_all(nlp, list(tracker.evaluate(start[None]).durations)))
     if not kept and problem.limits.has_position_range:

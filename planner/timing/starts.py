@@ -42,6 +42,7 @@ import numpy as np
 
 from ..limits import rest_to_rest_time
 from .problem import TimingProblem
+from .result import AGREEMENT
 
 _CHORD_FLOOR = 1e-3
 #: Solutions differ on a segment where their durations differ by more than this fraction.
@@ -104,3 +105,13 @@ def recombined(solutions: list[np.ndarray]) -> np.ndarray | None:
                 result[region] = other[region]
                 taken += 1
     return result if taken else None
+
+
+def recombination(solved: list[tuple[np.ndarray, float]]) -> np.ndarray | None:
+    """``recombined`` durations (S,) [s] of solved starts, each (durations (S,) [s], objective), where their
+    objectives differ by more than ``AGREEMENT``; None where none is given, they agree (nothing to gain), or no
+    region is taken."""
+    objectives = [objective for _, objective in solved]
+    if not solved or max(objectives) <= min(objectives) * (1 + AGREEMENT):
+        return None
+    return recombined([durations for durations, _ in solved])

@@ -32,8 +32,8 @@ from ..concurrency import core_count, map_forked, map_forked_until
 from ..errors import PlannerError
 from .nlp import TimingNLP
 from .problem import TimingProblem
-from .result import AGREEMENT, SOLVED, remaining_time
-from .starts import chord_segments, recombined, start_shapes
+from .result import SOLVED, remaining_time
+from .starts import chord_segments, recombination, start_shapes
 
 #: The name of the start stitched from the windows (``StartReport.label``).
 WINDOWS = "windows"
@@ -77,7 +77,7 @@ def windowed(problem: TimingProblem) -> bool:
 def _solve_window(problem: TimingProblem, window: tuple[int, int, int, int],
                   report: Callable | None = None) -> tuple[np.ndarray, np.ndarray, int] | None:
     """The durations (S_w,) [s] of one window's NLP (``window_spans``), the best of its two shapes' solves
-    and, where they differ, their recombination's (``starts.recombined``; repaired: feasible and tight), the
+    and, where they differ, their recombination's (``starts.recombination``; repaired: feasible and tight), the
     chord of ``problem`` each of its segments belongs to (S_w,), and IPOPT's iterations over its solves;
     None where neither solved. (``report``: ``map_forked_until``'s, unused: a window is whole or nothing.)"""
     first, end, _, _ = window
@@ -105,9 +105,7 @@ def _solve_window(problem: TimingProblem, window: tuple[int, int, int, int],
         return found
 
     found = solved(repaired.durations)
-    objectives = [objective for _, objective in found]
-    combined = recombined([durations for durations, _ in found]) \
-        if found and max(objectives) > min(objectives) * (1 + AGREEMENT) else None
+    combined = recombination(found)
     if combined is not None:  # as ``nlp_refine`` does on the whole problem
         found += solved(part.evaluate(combined[None]).durations)
     if not found:
