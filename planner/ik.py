@@ -52,7 +52,7 @@ import logging
 import math
 import weakref
 from dataclasses import dataclass, replace
-from typing import Callable, Iterable
+from typing import Callable
 
 import numpy as np
 import pinocchio as pin
@@ -341,44 +341,53 @@ def pose_solutions(robot: Robot, target: pin.SE3, limits: JointLimits, rng: np.r
 
     With a closed-form solver (``closed_form_solver``; ``closed_form`` False: the numeric search
     regardless, for comparisons) these are its solutions, each refined
-    by Newton steps (one solve). Otherwise each random start is solved without clipping; a
+    by Newton steps (one solve). Otherwise, and where none of those reaches the pose within the ranges
+    (at a singularity, where the closed form's solutions degenerate: a UR5 with its wrist or elbow
+    straight), each of ``starts`` random starts is solved without clipping; a
     converged solution with no 2 pi turn inside the ranges is solved again with clipping from
     its clipped value, and on a redundant arm it is ``centred``. Solutions equal up to 2 pi
     turns (within ``DISTINCT``) are one; at most ``MAX_SOLUTIONS`` are kept.
     """
     solve = closed_form_solver(robot) if closed_form else None
-    lower, upper = _finite_ranges(robot)
-    seeds: Iterable[np.ndarray]
-    if solve is not None:
-        seeds, starts = list(solve(target)), 1
-        if not seeds:  # out of reach: a solve from the middle of the ranges gives the residual to report
-            seeds = [(lower + upper) / 2]
-    else:
-        seeds = (lower + (upper - lower) * rng.random(robot.dof) for _ in range(starts))
     found: list[IKSolution] = []
-    best = None
-    for attempt, seed in enumerate(seeds, start=1):
-        if solve is not None:
-            solution = solve_pose(robot, target, seed, clip=False, max_iterations=_REFINE_ITERATIONS)
-        else:
-            solution = solve_pose(robot, target, seed, clip=False)
-        inside = solution.residual <= accept and turn_variant_count(robot, solution.q, limits) > 0
-        if solution.residual <= accept and not inside and solve is None:
-            solution = solve_pose(robot, target, solution.q)
-            inside = solution.residual <= accept and turn_variant_count(robot, solution.q, limits) > 0
-        if inside and robot.model.nv > 6:
-            solution = centred(robot, target, _widest_variant(robot, solution, limits), limits, accept)
-        rank = (inside, solution.residual <= accept,
-                -_range_excess(robot, solution.q, limits)[0] if solution.residual <= accept else 0.0,
-                -solution.residual)
-        if best is None or rank > best[0]:
-            best = (rank, solution)
-        if inside and _distinct(robot, solution.q, found):
-            found.append(solution)
+    best: tuple | None = None
+    used = 0
+    if solve is not None:
+        used = 1
+        for seed in solve(target):
+            best = _keep(robot, target, limits, accept, found, best,
+                         solve_pose(robot, target, seed, clip=False, max_iterations=_REFINE_ITERATIONS), False)
             if len(found) == MAX_SOLUTIONS:
                 break
-    assert best is not None  # at least one seed
-    return found, best[1], starts if solve is not None else attempt
+    if not found:
+        lower, upper = _finite_ranges(robot)
+        for attempt in range(1, starts + 1):
+            seed = lower + (upper - lower) * rng.random(robot.dof)
+            best = _keep(robot, target, limits, accept, found, best, solve_pose(robot, target, seed, clip=False), True)
+            used += 1
+            if len(found) == MAX_SOLUTIONS:
+                break
+    assert best is not None  # at least one solve
+    return found, best[1], used
+
+
+def _keep(robot: Robot, target: pin.SE3, limits: JointLimits, accept: float, found: list[IKSolution],
+          best: tuple | None, solution: IKSolution, numeric: bool) -> tuple:
+    """``pose_solutions``' step for one solve: a ``numeric`` one that reaches the pose outside the ranges is
+    solved again with clipping; one inside is ``centred`` on a redundant arm and added to ``found`` if
+    distinct. Returns the better of ``best`` and this one, as (rank, solution)."""
+    inside = solution.residual <= accept and turn_variant_count(robot, solution.q, limits) > 0
+    if solution.residual <= accept and not inside and numeric:
+        solution = solve_pose(robot, target, solution.q)
+        inside = solution.residual <= accept and turn_variant_count(robot, solution.q, limits) > 0
+    if inside and robot.model.nv > 6:
+        solution = centred(robot, target, _widest_variant(robot, solution, limits), limits, accept)
+    rank = (inside, solution.residual <= accept,
+            -_range_excess(robot, solution.q, limits)[0] if solution.residual <= accept else 0.0,
+            -solution.residual)
+    if inside and _distinct(robot, solution.q, found):
+        found.append(solution)
+    return (rank, solution) if best is None or rank > best[0] else best
 
 
 def _widest_variant(robot: Robot, solution: IKSolution, limits: JointLimits) -> IKSolution:

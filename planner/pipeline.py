@@ -63,7 +63,7 @@ from .read_only import read_only
 from .recording import prepare_recording, write_recording
 from .report import plot_profiles, prepare_figure
 from .robot import Robot, load_robot
-from .splines import MAX_SAMPLES, PiecewisePolynomial
+from .splines import MAX_SAMPLES, PiecewisePolynomial, get_family
 from .task import Task, check_limit_counts, check_task, load_task, parse_task, plain_values
 from .timing import OptimizationResult, TimingProblem, optimize
 from .timing.nlp import robot_refine
@@ -124,14 +124,14 @@ class PlanResult:
         """Check that the parts belong together, and compute the trajectory's figures.
 
         Raises:
-            InputError: a trajectory that is not a ``PiecewisePolynomial``, via-points or limits for
-                another number of joints, via-points the trajectory does not pass, IK solutions for
-                another number of waypoints, or a tool path or robot-limit figures measured on another
-                trajectory (``measured_on``).
+            InputError: a part of another type (a trajectory that is not a ``PiecewisePolynomial``, ...),
+                via-points or limits for another number of joints, via-points the trajectory does not pass,
+                IK solutions for another number of waypoints, a task that is not the one planned (another
+                family's segments, a robot where the result has none or the reverse, other joint
+                waypoints, limits for another number of joints), or a tool path or robot-limit figures
+                measured on another trajectory (``measured_on``).
         """
-        if not isinstance(self.trajectory, PiecewisePolynomial):
-            raise InputError(f"a plan result's trajectory must be a PiecewisePolynomial, not "
-                             f"{type(self.trajectory).__name__}")
+        self._check_types()
         via = np.asarray(self.via_points, dtype=float)
         joints = self.trajectory.joint_count
         if via.shape != (len(self.trajectory.via_knots), joints) or self.limits.joint_count != joints:
@@ -144,12 +144,46 @@ class PlanResult:
         waypoints = self.task.cartesian_waypoints
         if self.ik is not None and waypoints is not None and len(self.ik) != len(waypoints):
             raise InputError(f"a plan result holds {len(self.ik)} IK solutions for {len(waypoints)} waypoints")
+        self._check_task(via)
         object.__setattr__(self, "via_points", read_only(via))  # the summary reads it
         if self.measured_on and (self.path is not None or self.robot_limits is not None) \
                 and self.measured_on != trajectory_digest(self.trajectory):
             raise InputError("a plan result's tool path and robot-limit figures were measured on the trajectory "
                              "planned, not on this one: plan again for another trajectory")
         object.__setattr__(self, "figures", kinematic_figures(self.trajectory))
+
+    def _check_types(self) -> None:
+        """Each part of its type (``dataclasses.replace`` takes anything)."""
+        required = {"task": (self.task, Task), "limits": (self.limits, JointLimits),
+                    "optimization": (self.optimization, OptimizationResult),
+                    "trajectory": (self.trajectory, PiecewisePolynomial)}
+        optional = {"robot": (self.robot, Robot), "ik": (self.ik, list), "path": (self.path, StraightPath),
+                    "robot_limits": (self.robot_limits, RobotLimitOutcome)}
+        for name, (value, kind) in {**required, **optional}.items():
+            if not isinstance(value, kind) and not (name in optional and value is None):
+                article = "an" if kind.__name__[0] in "AEIOU" else "a"
+                raise InputError(f"a plan result's {name} must be {article} {kind.__name__}"
+                                 f"{' or None' if name in optional else ''}, not {type(value).__name__}")
+
+    def _check_task(self, via: np.ndarray) -> None:
+        """The task is the one planned: its family's segments, its robot, its joint waypoints and its limits'
+        joint count."""
+        task, trajectory = self.task, self.trajectory
+        family = get_family(task.family)
+        distinct = np.unique(trajectory.via_knots)  # repeated via-points share a knot
+        if trajectory.segment_count != family.segment_count(len(distinct)) \
+                or not np.array_equal(distinct, family.via_knots(len(distinct))):
+            raise InputError(f"a plan result's trajectory ({trajectory.segment_count} segments through "
+                             f"{len(distinct)} distinct via-points) is not of its task's family {task.family!r}")
+        if (task.robot is None) != (self.robot is None):
+            raise InputError(f"a plan result's task {task.name!r} has {'no' if task.robot is None else 'a'} robot, "
+                             f"the result {'none' if self.robot is None else 'one'}")
+        if task.joint_waypoints is not None and not np.array_equal(task.joint_waypoints, via):
+            raise InputError(f"a plan result's via-points are not its task {task.name!r}'s joint waypoints")
+        counts = {len(values) for values in task.limits.values()} - {via.shape[1]}
+        if counts:
+            raise InputError(f"a plan result's task {task.name!r} gives limits for {counts.pop()} joints, its "
+                             f"trajectory has {via.shape[1]}")
 
     @property
     def feasible(self) -> bool:
@@ -568,7 +602,9 @@ def shortest_total_time(via: np.ndarray, limits: JointLimits, task: Task) -> flo
 
 def robot_limits(robot: Robot, task: Task) -> JointLimits:
     """The robot's limits with the task's overrides; acceleration and jerk limits must exist."""
-    check_limit_counts(task.limits, robot.dof, f"for robot {robot.name!r}")
+    chain = f"one per joint that moves tool frame {robot.tool_frame!r}: {', '.join(robot.joint_names)}"
+    check_limit_counts(task.limits, robot.dof, f"for robot {robot.name!r} ({chain})" if robot.locked_positions
+                       else f"for robot {robot.name!r}")
     if robot.placeholder_velocity and task.limits.get("velocity") is None:
         joint, key = robot.placeholder_velocity[0], f"limits.{LIMITED[0].key}"
         raise MissingLimitError(f"robot {robot.name!r} gives joint {joint} a velocity limit of 0 in its URDF (a "

@@ -503,7 +503,8 @@ def check_limit_counts(limits: dict[str, np.ndarray], joints: int, context: str)
     """Every limit override has one value per joint; the error names the task key."""
     for key, values in limits.items():
         if len(values) != joints:
-            raise TaskError(f"limits.{_LIMIT_KEY_OF[key]}", f"must have {joints} values {context}, got {len(values)}")
+            raise TaskError(f"limits.{_LIMIT_KEY_OF[key]}", f"must have {joints} value{'s' * (joints != 1)} {context}, "
+                                                            f"got {len(values)}")
 
 
 def _check_joint_counts(joints: int, limits: dict[str, np.ndarray]) -> None:

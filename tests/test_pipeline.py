@@ -80,6 +80,13 @@ def paper_cartesian(**changes) -> dict:
      "robot 'ur5' has no acceleration limit for joint shoulder_pan_joint; give limits.acceleration_deg_s2"),
     ({"limits": {"jerk_deg_s3": [1, 2]}}, TaskError,
      r"^limits.jerk_deg_s3: must have 6 values for robot 'puma560', got 2"),
+    # a tool frame that only the first joints move: the count is theirs, and the message says so (sweep 24)
+    ({"robot": {"name": "ur5", "tool_frame": "forearm_link"}, "limits": {"jerk_deg_s3": [1] * 6}}, TaskError,
+     r"^limits.jerk_deg_s3: must have 3 values for robot 'ur5' \(one per joint that moves tool frame "
+     r"'forearm_link': shoulder_pan_joint, shoulder_lift_joint, elbow_joint\), got 6"),
+    ({"robot": {"name": "ur5", "tool_frame": "shoulder_link"}, "limits": {"jerk_deg_s3": [1] * 6}}, TaskError,
+     r"^limits.jerk_deg_s3: must have 1 value for robot 'ur5' \(one per joint that moves tool frame "
+     r"'shoulder_link': shoulder_pan_joint\), got 6"),
 ])
 def test_robot_task_errors(changes, error, message):
     with pytest.raises(error, match=message):
@@ -142,9 +149,13 @@ def test_unreachable_pose_exits_2_with_one_line(tmp_path, capsys):
     assert not (tmp_path / "out").exists()
 
 
-def test_bundled_tasks_load():
-    for path in sorted(TASKS.glob("*.yaml")):
-        assert load_task(path).name == path.stem
+@pytest.mark.parametrize("path", sorted(TASKS.glob("*.yaml")), ids=lambda path: path.stem)
+def test_every_bundled_task_plans_within_its_limits(path):
+    """Each task file the project ships (a new one too) plans, and its result holds every limit by an
+    independent dense check (``assert_plan_holds``), not only loads under its name."""
+    task = load_task(path)
+    assert task.name == path.stem
+    assert_plan_holds(plan(task))
 
 
 @pytest.mark.parametrize("change, message", [
@@ -779,6 +790,42 @@ def test_a_plan_result_describes_the_trajectory_it_holds():
         dataclasses.replace(result, trajectory=None)
     with pytest.raises(dataclasses.FrozenInstanceError):
         result.trajectory = faster.trajectory
+
+
+def test_a_plan_result_refuses_a_task_or_parts_that_are_not_the_ones_planned():
+    """A result given another task (``dataclasses.replace``) was saved as that task's: summary.json named
+    a 3-joint quintic task for a 2-joint hybrid trajectory, with another algorithm requested; a part of
+    the wrong type (task None, a path as the task, a robot name) ended in an AttributeError traceback
+    (sweep 24). Both are refused when the result is made, naming the part."""
+    import dataclasses
+
+    limits = {"velocity_deg_s": [60, 60], "acceleration_deg_s2": [120, 120], "jerk_deg_s3": [600, 600]}
+    joints = [[0, 0], [40, -20], [90, 10]]
+    result = plan(planner.make_task(name="two", joints_deg=joints, limits=limits, trajectory={"family": "hybrid"}))
+
+    def task(**changes):
+        return planner.make_task(**{"name": "other", "joints_deg": joints, "limits": limits,
+                                    "trajectory": {"family": "hybrid"}, **changes})
+    assert dataclasses.replace(result, task=task(optimizer={"algorithm": "pso"})).summary()["task"] == "other"
+    with pytest.raises(InputError, match=r"\(4 segments through 3 distinct via-points\) is not of its task's "
+                                         r"family 'quintic'"):
+        dataclasses.replace(result, task=task(trajectory={"family": "quintic"}))
+    with pytest.raises(InputError, match="via-points are not its task 'other''s joint waypoints"):
+        dataclasses.replace(result, task=task(joints_deg=[[0, 0], [40, -20], [90, 11]]))
+    three = {key: values + [values[0]] for key, values in limits.items()}
+    with pytest.raises(InputError, match="via-points are not its task 'other''s joint waypoints"):
+        dataclasses.replace(result, task=task(joints_deg=[row + [0] for row in joints], limits=three))
+    with pytest.raises(InputError, match="task 'other' has a robot, the result none"):
+        dataclasses.replace(result, task=planner.make_task(name="other", joints_deg=[[0] * 6, [10] * 6],
+                                                           robot={"name": "ur5", "tool_frame": "tool0"}))
+    for part, value, said in (("task", None, "task must be a Task, not NoneType"),
+                              ("task", "x.yaml", "task must be a Task, not str"),
+                              ("optimization", None, "optimization must be an OptimizationResult, not NoneType"),
+                              ("limits", {}, "limits must be a JointLimits, not dict"),
+                              ("robot", "ur5", "robot must be a Robot or None, not str"),
+                              ("ik", (), "ik must be a list or None, not tuple")):
+        with pytest.raises(InputError, match=said):
+            dataclasses.replace(result, **{part: value})
 
 
 def test_a_plan_result_with_a_tool_path_refuses_another_trajectory():

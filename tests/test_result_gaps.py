@@ -214,3 +214,29 @@ def test_a_population_beyond_what_a_search_holds_is_refused_naming_its_setting(a
                                            rf"at most {most} for {segments} segments$"):
         optimize(problem, algorithm, **{setting: value})
     optimize(problem, algorithm, **{setting: most}, time_limit_s=1e-9)  # the most allowed runs
+
+
+def test_a_large_batch_under_a_time_limit_is_evaluated_in_chunks_the_limit_can_stop():
+    """A population that is slow to evaluate (PSO with 10,000 particles of 99 hermite7 segments: 882 in one
+    chunk took 7.8 s) ran past a 2 s limit by its first chunk (sweep 24). Under a limit the first chunk
+    measures the cost per candidate, and later chunks take a tenth of the time left: the search stops near
+    the limit, with what it evaluated. Without a limit the batch is one chunk, as before."""
+    problem = _problem()
+    seen = []
+
+    def slow(candidates):
+        seen.append(len(candidates))
+        time.sleep(2e-3 * len(candidates))  # 2 ms a candidate
+        return problem.evaluate(candidates)
+
+    lower, upper = problem.search_box()
+    batch = lower + (upper - lower) * np.random.default_rng(0).random((400, len(lower)))
+    tracker = SearchTracker(problem)
+    tracker._track(slow, batch)
+    assert seen == [400]
+    seen.clear()
+    tracker = SearchTracker(problem)
+    with time_limit(0.2), pytest.raises(OutOfTime):
+        tracker._track(slow, batch)  # 0.8 s in one chunk
+    assert seen[0] == 8 and max(seen) <= 0.1 * 0.2 / 2e-3 + 1 and tracker.evaluations == sum(seen) < 400
+    assert tracker.best_objective == pytest.approx(problem.evaluate(batch[:sum(seen)]).objective.min())

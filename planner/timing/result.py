@@ -117,6 +117,12 @@ class OptimizationResult(ReadOnlyArrays):
 #: floats, and a few times that in work arrays): ``SearchTracker`` evaluates larger batches in chunks
 #: (10,000 nests of 999 segments made one 915 MB array, then a MemoryError).
 CHUNK_COEFFICIENTS = 2**22
+#: Under a time limit, a chunk holds at most the candidates that take this fraction of the time left, at the
+#: cost per candidate the tracker last measured; its first chunk holds ``PROBE_CANDIDATES``, to measure it.
+#: Without that, a population's first evaluation ran whole past the limit (PSO with 10,000 particles of
+#: 99 hermite7 segments: a chunk of 882 took 7.8 s for a time limit of 2 s).
+CHUNK_TIME_SHARE = 0.1
+PROBE_CANDIDATES = 8
 #: Most numbers a search population may hold (members x segments, 160 MB of floats): ``check_population``.
 MAX_POPULATION_NUMBERS = 2 * 10**7
 #: How the stop reason of a run the time limit ended begins (``OptimizationResult.out_of_time``).
@@ -183,6 +189,7 @@ class SearchTracker:
         self._progress = progress
         self._total = total_iterations
         self._start = time.perf_counter()
+        self._candidate_seconds: float | None = None  # an evaluation's wall time per candidate [s], last measured
 
     def evaluate(self, candidates: np.ndarray, repair: bool = True) -> Evaluation:
         """Evaluate a batch (repaired from the search box, or as durations) and track the best."""
@@ -194,15 +201,18 @@ class SearchTracker:
         return self._track(self.problem.evaluate_states, durations, states)
 
     def _track(self, evaluate: Callable[..., Evaluation], *batches) -> Evaluation:
-        """``evaluate(*batches)`` (arrays of B rows), ``CHUNK_COEFFICIENTS`` at a time: each chunk's
-        candidates offered as the best and counted, the time limit checked after each."""
-        rows = max(1, CHUNK_COEFFICIENTS // (self.problem.segment_count * self.problem.joint_count * 8))
-        whole = np.ndim(batches[0]) != 2 or len(batches[0]) <= rows  # (a malformed batch is refused whole)
-        chunks = [batches] if whole else [tuple(batch[begin:begin + rows] for batch in batches)
-                                          for begin in range(0, len(batches[0]), rows)]
-        parts = []
-        for chunk in chunks:
-            parts.append(evaluate(*chunk))
+        """``evaluate(*batches)`` (arrays of B rows) in chunks of ``CHUNK_COEFFICIENTS`` at most, and under a
+        time limit of ``CHUNK_TIME_SHARE`` of the time left (``_chunk_rows``): each chunk's candidates offered
+        as the best and counted, the time limit checked after each."""
+        count = len(batches[0]) if np.ndim(batches[0]) == 2 else 0  # (a malformed batch is refused whole)
+        parts: list[Evaluation] = []
+        begin = 0
+        while begin < count or not parts:
+            rows = count if count == 0 else self._chunk_rows()
+            started = time.perf_counter()
+            parts.append(evaluate(*(tuple(batch[begin:begin + rows] for batch in batches) if count else batches)))
+            self._candidate_seconds = (time.perf_counter() - started) / max(len(parts[-1].objective), 1)
+            begin += rows
             self.offer(parts[-1])
             self.check_time()
         if len(parts) == 1:
@@ -211,6 +221,18 @@ class SearchTracker:
             return np.concatenate([getattr(part, name) for part in parts])
         return Evaluation(joined("durations"), joined("objective"), joined("ratios"), joined("position_excess"),
                           joined("feasible"), None if parts[0].states is None else joined("states"))
+
+    def _chunk_rows(self) -> int:
+        """Candidates of the next chunk (``_track``): within ``CHUNK_COEFFICIENTS``, and under a time limit,
+        ``PROBE_CANDIDATES`` at first, then what takes ``CHUNK_TIME_SHARE`` of the time left at the cost per
+        candidate last measured."""
+        most = max(1, CHUNK_COEFFICIENTS // (self.problem.segment_count * self.problem.joint_count * 8))
+        left = remaining_time()
+        if left is None:
+            return most
+        if self._candidate_seconds is None:
+            return min(most, PROBE_CANDIDATES)
+        return int(np.clip(CHUNK_TIME_SHARE * left / max(self._candidate_seconds, 1e-9), 1, most))
 
     def count(self, evaluations: int) -> None:
         """Count ``evaluations`` that offer no candidate (a finite-difference Jacobian's points) and stop
