@@ -205,6 +205,50 @@ def test_planner_folder_is_replaced_whole_in_one_step(tmp_path):
     assert leftovers(tmp_path) == [] and sorted(os.listdir(tmp_path)) == ["out"]
 
 
+def _staged(path, texts: dict[str, str], **options) -> dict[str, int]:
+    """``write_outputs``, returning the inode of the staging folder (key ".") and of each file written."""
+    with output_folder(path, **options) as staging:
+        for name, text in texts.items():
+            (staging / name).write_text(text)
+        return {".": staging.stat().st_ino} | {name: (staging / name).stat().st_ino for name in texts}
+
+
+@pytest.mark.parametrize("before", ["none", "planner's", "forced"])
+def test_what_is_published_is_what_was_staged_moved_not_copied(tmp_path, before):
+    """Publishing moves the staged folder (a new or a planner's folder: the folder itself) or its files
+    (``--force`` into a folder of the user's) by renames: the same inodes, so nothing was copied, and a
+    reader never sees a half-copied file. Copies passed every test before: the cleanup removes whatever
+    they leave (#20's audit)."""
+    out = tmp_path / "out"
+    if before == "planner's":
+        write_outputs(out, {"a.txt": "0"})
+    elif before == "forced":
+        out.mkdir()
+        (out / "mine.txt").write_text("user")
+    staged = _staged(out, {"a.txt": "1", "b.txt": "2"}, force=before == "forced")
+    assert contents(out) | {MARKER: ""} == {"a.txt": "1", "b.txt": "2", MARKER: ""} | (
+        {"mine.txt": "user"} if before == "forced" else {})
+    assert {name: (out / name).stat().st_ino for name in ("a.txt", "b.txt")} == \
+        {name: staged[name] for name in ("a.txt", "b.txt")}
+    if before != "forced":
+        assert out.stat().st_ino == staged["."]
+    assert leftovers(tmp_path) == [] and leftovers(out) == []
+
+
+@pytest.mark.parametrize("existing", [False, True])
+def test_a_single_file_is_published_by_one_rename(tmp_path, existing):
+    """``atomic_file`` (``--export-csv``, ``--screenshot``) renames its temporary file onto the target:
+    the same inode, nothing else left in the folder."""
+    target = tmp_path / "x.csv"
+    if existing:
+        target.write_text("old")
+    with atomic_file(target, force=existing) as temporary:
+        temporary.write_text("new")
+        inode = temporary.stat().st_ino
+    assert target.read_text() == "new" and target.stat().st_ino == inode
+    assert sorted(os.listdir(tmp_path)) == ["x.csv"]
+
+
 def test_another_commands_outputs_are_kept_as_a_users_files(tmp_path):
     """A reproduction into a plan's folder replaced it whole: the plan's outputs were deleted without a
     word, --force or not (sweep 17). A run that names its files now refuses the planner's files of other

@@ -34,13 +34,17 @@ def test_every_output_exists_and_agrees(planned):
     assert sorted(p.name for p in out.iterdir()) == [".planner-output", "coefficients.json", "profiles.png",
                                                      "summary.json", "trajectory.csv", "trajectory.rrd"]
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["total_time_s"] == pytest.approx(sum(summary["durations_s"]))
     assert summary["robot"]["name"] == result.robot.name and len(summary["ik"]["waypoints"]) == len(result.ik)
     assert all(w["position_error_m"] <= 1e-9 for w in summary["ik"]["waypoints"])
     # The trajectory passes through the IK via-points at the via times, and its samples respect the limits.
     trajectory = result.trajectory
     np.testing.assert_allclose(trajectory.evaluate(summary["via_times_s"]), result.via_points, atol=1e-9)
     times, values = read_trajectory_csv(out / "trajectory.csv")
+    # The total time is where the motion ends: the CSV's last row (its end time) holds the last via-point at rest.
+    assert times[-1] == pytest.approx(result.trajectory.total_time, rel=1e-14)
+    assert summary["total_time_s"] == pytest.approx(times[-1], rel=1e-11) == summary["via_times_s"][-1]
+    np.testing.assert_allclose(values[0][-1], result.via_points[-1], atol=1e-9)
+    np.testing.assert_allclose(values[1:, -1], 0.0, atol=1e-6)
     for d in (1, 2, 3):
         assert np.all(np.abs(values[d]).max(axis=0) <= result.limits.magnitudes[d - 1] * (1 + 1e-6))
     coefficients = json.loads((out / "coefficients.json").read_text())

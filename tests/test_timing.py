@@ -682,6 +682,22 @@ def test_every_given_via_point_is_within_the_repeat_tolerance_of_the_one_planned
     assert np.all(np.diff(problem.via_index) >= 0) and problem.via_index[0] == 0
 
 
+@pytest.mark.parametrize("apart, merged", [(5e-10, True), (1e-9, True), (2e-9, False), (1e-8, False),
+                                           (1e-6, False), (1e-3, False)])
+def test_via_points_a_nanoradian_apart_are_merged_and_further_ones_planned_through(apart, merged):
+    """The repeat tolerance is 1e-9 rad, written here as a number (the test above reads the module's
+    constant, and moves with it): a via-point that far from the one before, in its only moving joint, is
+    one stop with it; 2e-9 rad and more apart, it is a via-point of its own, passed at its own time."""
+    via = np.array([[0.0, 0.0], [0.5, 0.3], [0.5 + apart, 0.3], [1.0, 0.0]])
+    problem = TimingProblem(via, "cubic", JointLimits.create(2, velocity=[1.0, 1.0], acceleration=[2.0, 2.0],
+                                                             jerk=[5.0, 5.0]))
+    assert len(problem.via_points) == (3 if merged else 4)
+    trajectory = problem.trajectory(problem.evaluate(np.ones((1, problem.segment_count))).durations[0])
+    times = trajectory.via_times
+    assert (times[2] == times[1]) == merged
+    np.testing.assert_allclose(trajectory.evaluate(times)[:, 0], via[:, 0], rtol=0, atol=1e-9 if merged else 1e-12)
+
+
 @pytest.mark.parametrize("call, named", [
     (lambda p: p.evaluate_durations([1.0, 1.0, 1.0]), "4 segment durations, got 3"),
     (lambda p: p.evaluate_durations([1.0] * 5), "4 segment durations, got 5"),
