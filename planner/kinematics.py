@@ -27,6 +27,7 @@ from .limits import (
     default_joint_names,
     in_degrees,
     in_degrees_apart,
+    range_exceeded,
     ratio_exceeded,
     time_scale_factor,
 )
@@ -417,7 +418,8 @@ class KinematicFigures(ReadOnlyArrays):
 
         The one definition of feasibility (the optimizers' exact check, ``summary.json``,
         ``replay --check`` use it): every ratio <= 1 + ``FEASIBILITY_TOLERANCE`` and every position
-        within ``FEASIBILITY_TOLERANCE`` [rad] of its range.
+        within ``FEASIBILITY_TOLERANCE`` [rad] of its range (``ratio_exceeded``, ``range_exceeded``: the
+        optimizers' batched feasibility applies the same two tests).
         """
         found = []
         ratios = self.ratios(limits)
@@ -428,7 +430,7 @@ class KinematicFigures(ReadOnlyArrays):
                                        float(self.max_abs[d, j]), float(limits.magnitudes[d, j])))
         for side, values, bounds, outside in (("lower", self.position_min, limits.lower, -1.0),
                                               ("upper", self.position_max, limits.upper, 1.0)):
-            for j in np.flatnonzero(~(outside * (values - bounds) <= FEASIBILITY_TOLERANCE)):
+            for j in np.flatnonzero(range_exceeded(outside * (values - bounds))):
                 found.append(Violation(limits.names[j], int(j), "position", 0, float(values[j]), float(bounds[j]),
                                        side))
         return found

@@ -4,6 +4,7 @@ values are said to a user: in degrees (the task files' units) with the joint's n
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
@@ -79,6 +80,23 @@ def ratio_exceeded(ratios) -> np.ndarray:
     (``KinematicFigures.violations``), the optimizers' feasibility and their repair all use it (the
     repair's time-scale factor within the tolerance left a jerk ratio up to 1 + 3e-9)."""
     return ~(np.asarray(ratios, dtype=float) <= 1.0 + FEASIBILITY_TOLERANCE)
+
+
+def range_exceeded(excess) -> np.ndarray:
+    """Where a distance [rad] outside a position range (any shape; 0 or less inside, ``JointLimits.range_excess``)
+    breaks it: above ``FEASIBILITY_TOLERANCE``, or not a number. The one test of a position range, beside
+    ``ratio_exceeded`` for the magnitudes: the exact check, the optimizers' feasibility and the NLP's."""
+    return ~(np.asarray(excess, dtype=float) <= FEASIBILITY_TOLERANCE)
+
+
+def bounds_exceeded(durations, bounds: tuple[float, float]) -> np.ndarray:
+    """(...) whether durations (..., S) [s] leave the duration bounds (h_min, h_max) [s] in some segment: a
+    ratio h / h_max or h_min / h above 1 + ``FEASIBILITY_TOLERANCE`` (``ratio_exceeded``, the tolerance of
+    every limit; h_max may be inf and h_min 0)."""
+    h = np.asarray(durations, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratios = np.maximum(h / bounds[1], bounds[0] / h)
+    return np.asarray(ratio_exceeded(ratios).any(axis=-1))
 
 
 def in_degrees(value: float, order: int) -> str:
@@ -194,6 +212,11 @@ class JointLimits(ReadOnlyArrays):
         """Some joint has a lower or an upper position bound."""
         return bool(np.isfinite(self.lower).any() or np.isfinite(self.upper).any())
 
+    def range_excess(self, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+        """(..., J) how far [rad] positions spanning [low, high] (each (..., J)) leave each joint's range; 0
+        inside it (``range_exceeded`` tells whether that breaks the range)."""
+        return np.maximum(np.maximum(self.lower - low, high - self.upper), 0.0)
+
     def range_violation(self, positions: np.ndarray) -> tuple[tuple[int, ...], str, float] | None:
         """The first position outside its joint's range by more than ``FEASIBILITY_TOLERANCE``, or None.
 
@@ -207,8 +230,8 @@ class JointLimits(ReadOnlyArrays):
             InputError: positions that are not finite numbers, or not J to a row.
         """
         positions = self._positions(positions)
-        for side, outside in (("lower", positions < self.lower - FEASIBILITY_TOLERANCE),
-                              ("upper", positions > self.upper + FEASIBILITY_TOLERANCE)):
+        for side, outside in (("lower", range_exceeded(self.lower - positions)),
+                              ("upper", range_exceeded(positions - self.upper))):
             hits = np.argwhere(outside)
             if hits.size:
                 index = tuple(int(i) for i in hits[0])
@@ -295,7 +318,9 @@ def time_scale_factor(ratios: np.ndarray) -> np.ndarray:
         raise InputError(f"ratios must have shape (..., 3, J) with J >= 1, got {ratios.shape}")
     if not np.all(ratios >= 0):  # NaN fails too
         raise InputError(f"ratios must be numbers >= 0, got {ratios[~(ratios >= 0)][0]}")
-    roots = np.stack((ratios[..., 0, :], np.sqrt(ratios[..., 1, :]), np.cbrt(ratios[..., 2, :])))
+    # the order-th root of each quantity's ratio (its time-scaling exponent), by the correctly rounded roots
+    root: dict[int, Callable[[np.ndarray], np.ndarray]] = {1: np.asarray, 2: np.sqrt, 3: np.cbrt}
+    roots = np.stack([root[quantity.order](ratios[..., d, :]) for d, quantity in enumerate(LIMITED)])
     return roots.max(axis=(0, -1))
 
 

@@ -49,8 +49,10 @@ from .ik import (
 from .kinematics import KinematicFigures, Violation, continuity_breaks, kinematic_figures, via_point_misses
 from .limits import (
     LIMITED,
+    PROFILE_QUANTITIES,
     QUANTITIES,
     JointLimits,
+    bounds_exceeded,
     in_degrees,
     in_degrees_apart,
     numbers_apart,
@@ -251,6 +253,7 @@ class PlanResult:
                 "requested_algorithm": self.task.optimizer["algorithm"],
                 "algorithm": result.algorithm, "seed": result.seed, "evaluations": result.evaluations,
                 "wall_time_s": result.wall_time_s, "objective": self.task.optimizer["objective"],
+                "weights": self.task.optimizer["weights"], "time_limit_s": self.task.optimizer["time_limit"],
                 "objective_value": result.objective, "bounds_s": self.task.optimizer["bounds"],
                 "stop_reason": result.stop_reason, "settings": result.settings,
                 "best_per_iteration": result.history,
@@ -506,7 +509,7 @@ def _binding_limit(slowed: RobotLimitOutcome) -> str:
 
 def _beyond_h_max(durations: np.ndarray, bounds: tuple[float, float] | None) -> bool:
     """Whether a duration (S,) [s] exceeds the bound h_max (beyond the exact check's tolerance)."""
-    return bounds is not None and bool(ratio_exceeded(durations.max() / bounds[1]))
+    return bounds is not None and bool(bounds_exceeded(durations, (0.0, bounds[1])))
 
 
 def _narrower_h_max(problem: TimingProblem, factor: float) -> TimingProblem | None:
@@ -639,11 +642,11 @@ def _beyond_the_robot(robot: Robot, limits: JointLimits) -> tuple[dict, ...]:
     own, said = robot.limits, []
     for j, name in enumerate(limits.names):
         if name not in robot.placeholder_range and (limits.lower[j] < own.lower[j] or limits.upper[j] > own.upper[j]):
-            said.append({"joint": name, "limit": "position_deg",
+            said.append({"joint": name, "limit": PROFILE_QUANTITIES[0].key,
                          "task": np.rad2deg([limits.lower[j], limits.upper[j]]).tolist(),
                          "robot": np.rad2deg([own.lower[j], own.upper[j]]).tolist()})
         if name not in robot.placeholder_velocity and limits.velocity[j] > own.velocity[j]:
-            said.append({"joint": name, "limit": "velocity_deg_s", "task": float(np.rad2deg(limits.velocity[j])),
+            said.append({"joint": name, "limit": LIMITED[0].key, "task": float(np.rad2deg(limits.velocity[j])),
                          "robot": float(np.rad2deg(own.velocity[j]))})
     return tuple(said)
 
@@ -700,16 +703,16 @@ def _outside_bounds(problem: TimingProblem, result: OptimizationResult, worst: V
     k = int(np.argmax(h / high)) if h.max() > high else int(np.argmin(h / low))
     side, bound = ("above h_max", high) if h[k] > high else ("below h_min", low)
     d, j = (int(i) for i in np.unravel_index(int(np.argmax(result.ratios)), result.ratios.shape))
-    quantity, limit = QUANTITIES[d], float(problem.limits.magnitudes[d, j])
+    limited, limit = LIMITED[d], float(problem.limits.magnitudes[d, j])
     also = "" if worst is None else f", and in that timing {worst}"
     duration, shown_bound = numbers_apart(float(h[k]), bound)
     return InfeasibleError(f"no feasible timing found by {result.algorithm}{stopped} within optimizer.bounds_s = "
                            f"[{low:g}, {high:g}] s: meeting the limits takes segment {k} {duration} s, {side} = "
                            f"{shown_bound} s, "
-                           f"with joint {problem.limits.names[j]}'s {quantity} at its limit "
-                           f"{in_degrees(limit, d + 1)}{also}; widen the bounds or raise that limit"
+                           f"with joint {problem.limits.names[j]}'s {limited.name} at its limit "
+                           f"{in_degrees(limit, limited.order)}{also}; widen the bounds or raise that limit"
                            + _fixed_states_hint(problem, result), joint=j,
-                           quantity=quantity, value=float(result.ratios[d, j]) * limit, limit=limit)
+                           quantity=limited.name, value=float(result.ratios[d, j]) * limit, limit=limit)
 
 
 def _fixed_states_hint(problem: TimingProblem, result: OptimizationResult) -> str:
@@ -879,9 +882,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
             worst = max(found, key=lambda violation: violation.ratio, default=None)
             stopped = (f" before the time limit of {settings['time_limit']:g} s (optimizer.time_limit_s) stopped "
                        f"it (raise or remove that limit)" if result.out_of_time else "")
-            if problem.bounds is not None and not (
-                    problem.bounds[0] * (1 - 1e-12) <= result.durations.min()
-                    and result.durations.max() <= problem.bounds[1] * (1 + 1e-12)):
+            if problem.bounds is not None and bounds_exceeded(result.durations, problem.bounds):
                 raise _outside_bounds(problem, result, worst, stopped)  # whatever else it breaks, it breaks the bounds
             reasons = ([f"largest constraint ratio {result.max_ratio:.12g} (limit 1)"]
                        if ratio_exceeded(result.max_ratio) or worst is None else []) + \

@@ -57,6 +57,7 @@ from .errors import InputError, RecordingError, ViewerError, shown
 from .kinematics import continuity_breaks, kinematic_figures, via_point_misses
 from .limits import DEGREE_UNITS, PROFILE_QUANTITIES, QUANTITIES, JointLimits, seconds_text
 from .outputs import not_utf8, utf8_path
+from .read_only import ReadOnlyArrays, freeze_arrays
 from .splines import MAX_SAMPLES, PiecewisePolynomial
 from .validate import CONTROL_CHARACTERS
 
@@ -586,8 +587,9 @@ class RecordingCheck:
 
 
 @dataclass(frozen=True)
-class RecordedPlan:
-    """What ``read_recording`` recovers: the sampled joint positions and the exact trajectory.
+class RecordedPlan(ReadOnlyArrays):
+    """What ``read_recording`` recovers: the sampled joint positions and the exact trajectory (its arrays
+    read-only).
 
     Attributes:
         times: (N,) sample times [s], increasing, from 0 to the total time.
@@ -606,6 +608,9 @@ class RecordedPlan:
     joint_names: list[str]
     rate_hz: float
     via_points: np.ndarray | None = None
+
+    def __post_init__(self):
+        freeze_arrays(self)
 
     def check(self) -> RecordingCheck:
         """Re-run the exact limit checks, check that the trajectory is continuous and rests at both ends
@@ -664,7 +669,7 @@ def read_recording(path) -> RecordedPlan:
         raise RecordingError(f"{path}: recording is incomplete: no end marker (trajectory/end, written last: the "
                              "file was cut short, or is not as the planner wrote it)")
     count, rate_hz, span = _end(path, end_text, trajectory.total_time)
-    times_ns, positions = _samples(path, chunks.get(_SAMPLES, []), len(names))
+    times_ns, positions = _samples(path, chunks.get(_SAMPLES, []), list(names))
     _require_complete(path, times_ns, count, rate_hz, span)
     _require_schedule(path, times_ns, trajectory, rate_hz)
     return RecordedPlan(times_ns / 1e9, positions, trajectory, limits, names, rate_hz, via_points)
@@ -834,10 +839,12 @@ def _end(path: Path, text: str, total_time: float) -> tuple[int, float, tuple[fl
     return count, float(rate), (float(span[0]), float(span[1]))
 
 
-def _samples(path: Path, chunks: list, joints: int) -> tuple[np.ndarray, np.ndarray]:
-    """Sample times [ns] (N,) and positions [rad] (N, joints) of ``trajectory/samples``, sorted by time."""
+def _samples(path: Path, chunks: list, names: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    """Sample times [ns] (N,) and positions [rad] (N, joints) of ``trajectory/samples`` of the joints ``names``,
+    sorted by time."""
     import pyarrow as pa
 
+    joints = len(names)
     where = f"{path}: trajectory/samples"
     times, rows = [], []
     for chunk in chunks:
@@ -862,7 +869,7 @@ def _samples(path: Path, chunks: list, joints: int) -> tuple[np.ndarray, np.ndar
     bad = np.argwhere(~np.isfinite(positions))
     if bad.size:
         i, j = (int(k) for k in bad[0])
-        raise RecordingError(f"{where}: joint {j + 1} at {_seconds(times_ns[i])} is {positions[i, j]}")
+        raise RecordingError(f"{where}: joint {names[j]} at {_seconds(times_ns[i])} is {positions[i, j]}")
     order = np.argsort(times_ns, kind="stable")
     return times_ns[order], positions[order]
 

@@ -25,7 +25,6 @@ import pinocchio as pin
 
 from .errors import (
     InputError,
-    RobotError,
     RobotFileError,
     TaskError,
     UnknownFrameError,
@@ -243,7 +242,9 @@ class Robot:
                                             joint=reduced.names[j])
             if kind == "JointModelRevoluteUnaligned" and not np.linalg.norm(reduced.joints[j].extract().axis) > 0:
                 raise RobotFileError(f"joint {reduced.names[j]!r} of robot {shown(name)} ({urdf_path}) has no axis "
-                                     f"to turn about: <axis xyz> is the zero vector", path=Path(urdf_path))
+                                     f"to turn about: its <axis xyz> is the zero vector, or too long or too short to "
+                                     f"make a unit vector of in floating point (give one such as 0 0 1)",
+                                     path=Path(urdf_path))
         mimics = [joint for joint in _mimic_joints(Path(urdf_path)) if joint in reduced.names[1:]]
         if mimics:
             raise UnsupportedRobotError(f"joint {mimics[0]!r} of robot {shown(name)} copies another joint (URDF "
@@ -624,9 +625,14 @@ def _file_limits(path: Path, data: dict[str, object], chain: list[str], every: l
 
 
 def load_robot(urdf: Path | None = None, name: str | None = None, tool_frame: str | None = None) -> Robot:
-    """A robot from a URDF path or an example-robot-data name."""
+    """A robot from a URDF path or an example-robot-data name.
+
+    Raises:
+        InputError: both or neither given (a call's mistake, not the robot's).
+    """
     if (urdf is None) == (name is None):
-        raise RobotError("give exactly one of a URDF path or a robot name")
+        raise InputError(f"load_robot takes exactly one of a URDF path or a robot name, got "
+                         f"{'both' if urdf is not None else 'neither'}")
     if urdf is not None:
         return Robot.from_urdf(urdf, tool_frame)
     assert name is not None

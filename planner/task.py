@@ -548,9 +548,9 @@ def parse_task(data, *, name: str = "task", source: str | os.PathLike | None = N
     if robot_limits.given and robot is None:
         given = [key for key in _ROBOT_LIMIT_KEYS if key in document["limits"]]
         raise TaskError(f"limits.{given[0]}", "needs a robot (its dynamics and tool frame): give robot")
-    if robot is None and not any(k in limits for k in ("velocity", "acceleration", "jerk")):
-        raise TaskError("limits", "a joint-space task without a robot needs velocity_deg_s, "
-                                  "acceleration_deg_s2 or jerk_deg_s3")
+    if robot is None and not any(quantity.name in limits for quantity in LIMITED):
+        raise TaskError("limits", f"a joint-space task without a robot needs {', '.join(q.key for q in LIMITED[:-1])} "
+                                  f"or {LIMITED[-1].key}")
     if joints is not None and robot is None:  # a robot's joint count decides (``pipeline.robot_limits``)
         _check_joint_counts(joints.shape[1], limits)
     family, rate, min_segment = _trajectory(document.get("trajectory"), "trajectory")

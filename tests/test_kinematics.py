@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
 from scipy.integrate import quad
 
 from conftest import via_and_durations
@@ -109,18 +110,36 @@ def test_absent_limits_give_zero_ratio(paper_via):
     assert np.all(ratios[0, 1:] == 0) and np.all(ratios[0, 0] > 0)
 
 
-@given(st.integers(1, 6), st.integers(0, 10_000), st.integers(0, 3), st.booleans())
-def test_column_roots_match_numpy(degree, seed, rest_multiplicity, at_one):
-    """Roots in [0, 1], also with a multiple root at an end (the deflation path)."""
-    rng = np.random.default_rng(seed)
-    inside = rng.uniform(0.02, 0.98, rng.integers(0, degree + 1))
-    others = rng.uniform(1.5, 3.0, degree - len(inside))
+@st.composite
+def roots_in_and_out(draw):
+    """(roots inside [0.02, 0.98], roots in [1.5, 3]) of a polynomial of degree 1 to 6, drawn as arrays."""
+    degree = draw(st.integers(1, 6))
+    count = draw(st.integers(0, degree))
+    inside = draw(hnp.arrays(float, count, elements=st.floats(0.02, 0.98)))
+    return inside, draw(hnp.arrays(float, degree - count, elements=st.floats(1.5, 3.0)))
+
+
+@given(roots_in_and_out(), st.integers(0, 3), st.booleans(), st.floats(0.5, 2.0))
+def test_column_roots_match_numpy(roots, rest_multiplicity, at_one, factor):
+    """Roots in [0, 1], also with a multiple root at an end (the deflation path): every root inside is
+    found, and nothing else. A root of multiplicity m (drawn roots that coincide, or nearly) is found to
+    about the m-th root of the rounding (double precision: 1.5e-8 for m = 2, 6e-6 for m = 3), and once
+    at least: for extremes, its place is what counts (a triple root found once was taken for a miss)."""
+    inside, others = roots
     ends = np.full(rest_multiplicity, 1.0 if at_one else 0.0)
     coefficients = np.polynomial.polynomial.polyfromroots(np.concatenate((inside, others, ends)))
-    found = column_roots((coefficients * rng.uniform(0.5, 2.0))[None, None, None])[0, 0, 0]
+    found = column_roots((coefficients * factor)[None, None, None])[0, 0, 0]
     found = found[~np.isnan(found)]
     found = found[(found > 1e-6) & (found < 1 - 1e-6)]  # end points are candidates anyway
-    np.testing.assert_allclose(np.sort(found), np.sort(inside), atol=1e-7)
+
+    def tolerance(root: float) -> float:
+        multiplicity = int(np.sum(np.abs(inside - root) < 1e-3))
+        return 1e-7 if multiplicity <= 1 else 10 * np.finfo(float).eps ** (1 / multiplicity)
+    for root in inside:
+        assert np.abs(found - root).min(initial=np.inf) <= tolerance(root), (root, found)
+    for root in found:
+        nearest = inside[np.argmin(np.abs(inside - root))] if len(inside) else np.nan
+        assert abs(root - nearest) <= tolerance(nearest), (root, inside)
 
 
 def test_violations_name_joint_quantity_value_and_limit_in_degrees(paper_via):

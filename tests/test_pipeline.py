@@ -254,7 +254,8 @@ def test_the_time_limit_keeps_the_best_timing_says_so_and_saves_it(tmp_path):
     result.save(tmp_path / "out")  # the run's settings, not its progress display, are recorded
     optimizer = json.loads((tmp_path / "out" / "summary.json").read_text())["optimizer"]
     assert optimizer["stop_reason"] == "time limit of 0.5 s reached"
-    assert optimizer["settings"] == {"nests": 50, "iterations": 100_000}
+    assert optimizer["settings"]["nests"] == 50 and optimizer["settings"]["iterations"] == 100_000
+    assert {"nests", "iterations"} < set(optimizer["settings"]) and "progress" not in optimizer["settings"]
     assert result.summary()["feasible"] and len(optimizer["best_per_iteration"]) < 100_000
 
 
@@ -790,6 +791,25 @@ def test_a_plan_result_describes_the_trajectory_it_holds():
         dataclasses.replace(result, trajectory=None)
     with pytest.raises(dataclasses.FrozenInstanceError):
         result.trajectory = faster.trajectory
+
+
+def test_the_summary_holds_what_repeats_the_run():
+    """summary.json's optimizer section gives the algorithm asked for (beside the one that ran), the
+    objective with its weights, the bounds, the time limit and the seed: a task made from them plans the
+    same trajectory. The weights and time limit were missing, so a time-jerk run could not be repeated."""
+    limits = {"velocity_deg_s": [60, 60], "acceleration_deg_s2": [120, 120], "jerk_deg_s3": [600, 600]}
+    joints = [[0, 0], [40, -20], [90, 10], [30, 30]]
+    asked = {"algorithm": "default", "objective": "time-jerk", "weights": [1.0, 0.02], "bounds_s": [0.2, 3.0],
+             "time_limit_s": 60, "seed": 3}
+    result = plan(planner.make_task(name="jerk", joints_deg=joints, limits=limits, optimizer=asked))
+    summary = result.summary()["optimizer"]
+    assert summary["requested_algorithm"] == "default" and summary["algorithm"] == "cuckoo"
+    again = {"algorithm": summary["requested_algorithm"], "objective": summary["objective"],
+             "weights": summary["weights"], "bounds_s": summary["bounds_s"], "time_limit_s": summary["time_limit_s"],
+             "seed": summary["seed"]}
+    assert again == asked
+    repeated = plan(planner.make_task(name="jerk", joints_deg=joints, limits=limits, optimizer=again))
+    np.testing.assert_array_equal(repeated.trajectory.durations, result.trajectory.durations)
 
 
 def test_a_plan_result_refuses_a_task_or_parts_that_are_not_the_ones_planned():

@@ -365,7 +365,7 @@ MALFORMED = {  # case: (write_like_planner arguments, a text the message must ho
     "samples ragged": (dict(rows=[(t, q if k != 7 else q[:1]) for k, (t, q) in enumerate(zip(_TIMES, _POSITIONS))]),
                        "expected 2 joint positions"),
     "samples with NaN": (dict(positions=np.where(np.arange(len(_TIMES))[:, None] == 9, np.nan, _POSITIONS)),
-                         "joint 1 at 0.18 s is nan"),
+                         "joint shoulder at 0.18 s is nan"),
     "samples static": (dict(static_samples=True), "timeline"),
 }
 

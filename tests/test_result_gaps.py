@@ -87,7 +87,8 @@ def test_the_result_reports_the_best_candidate_checked_again_as_durations():
     evaluation = tracker.evaluate(np.array([[1.0] * problem.segment_count, [0.5] * problem.segment_count]))
     tracker.end_iteration()
     tracker.starts.append(_start("s", 9))
-    result = tracker.result("test", "why", 7, {"k": 1})
+    tracker.settings = {"k": 1}
+    result = tracker.result("test", "why", 7)
     best = int(np.argmin(evaluation.objective))
     np.testing.assert_allclose(result.durations, evaluation.durations[best], rtol=0)
     check = problem.evaluate_durations(evaluation.durations[best][None])
@@ -110,7 +111,7 @@ def test_the_result_checks_free_states_with_the_states_the_search_chose():
     states = np.zeros((1, count, joints, 3))
     tracker = SearchTracker(problem)
     evaluation = tracker.evaluate_states(np.ones((1, problem.segment_count)), states)
-    result = tracker.result("nlp", "", None, {})
+    result = tracker.result("nlp", "", None)
     at_rest = problem.evaluate_durations(evaluation.durations, states)
     own_rule = problem.evaluate_durations(evaluation.durations)
     np.testing.assert_allclose(result.ratios, at_rest.ratios[0], rtol=1e-12)
@@ -130,7 +131,7 @@ def test_a_search_that_meets_only_infeasible_candidates_keeps_the_least_penalise
     assert not evaluation.feasible.any()
     assert tracker.best_durations is not None and not tracker.best_feasible
     assert tracker.best_objective == evaluation.objective.min() > short.sum(axis=1).max()
-    result = tracker.result("cuckoo-paper", "", 0, {})
+    result = tracker.result("cuckoo-paper", "", 0)
     assert not result.feasible and result.total_time == pytest.approx(short[np.argmin(evaluation.objective)].sum())
 
 

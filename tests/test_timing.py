@@ -682,6 +682,20 @@ def test_every_given_via_point_is_within_the_repeat_tolerance_of_the_one_planned
     assert np.all(np.diff(problem.via_index) >= 0) and problem.via_index[0] == 0
 
 
+@pytest.mark.parametrize("algorithm, settings", [
+    ("default", {}), ("nlp", {}), ("cuckoo", {"nests": 4, "iterations": 2}),
+    ("cuckoo-paper", {"nests": 4, "iterations": 2}), ("pso", {"particles": 4, "iterations": 2}),
+    ("de", {"population": 2, "evaluations": 40}), ("slsqp", {"starts": 2, "iterations": 3})])
+def test_a_run_the_time_limit_ends_records_every_setting_as_a_whole_run(algorithm, settings):
+    """summary.json's settings let a run be repeated: a run the time limit ended recorded only the
+    settings the task gave (none: {}), not the defaults it ran with; it records the same as a whole run."""
+    problem = TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", paper.paper_limits(), bounds=(3.0, 5.0))
+    whole = optimize(problem, algorithm, **settings)
+    cut = optimize(problem, algorithm, time_limit_s=1e-9, **settings)
+    assert cut.stop_reason.startswith("time limit") and not whole.stop_reason.startswith("time limit")
+    assert cut.settings == whole.settings and set(settings) <= set(whole.settings)
+
+
 @pytest.mark.parametrize("apart, merged", [(5e-10, True), (1e-9, True), (2e-9, False), (1e-8, False),
                                            (1e-6, False), (1e-3, False)])
 def test_via_points_a_nanoradian_apart_are_merged_and_further_ones_planned_through(apart, merged):

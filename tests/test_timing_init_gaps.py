@@ -151,11 +151,13 @@ def test_a_wrong_problem_or_optimizer_is_refused_by_name():
 
 
 def test_a_run_stopped_by_its_time_limit_reports_what_was_asked():
-    """At the time limit: the best candidate so far, under the optimizer's name, with the run's seed and the
-    settings the caller gave (not seed or progress), and the reason."""
+    """At the time limit: the best candidate so far, under the optimizer's name, with the run's seed and every
+    setting it ran with, the caller's and the defaults, as a whole run records them (not seed or progress),
+    and the reason."""
     calls = []
     result = optimize(_walk(4), "cuckoo", time_limit_s=0.05, nests=50, iterations=100_000, seed=4,
                       progress=lambda *args: calls.append(args))
     assert result.algorithm == "cuckoo" and result.seed == 4 and result.feasible
-    assert result.settings == {"nests": 50, "iterations": 100_000}
+    defaults = optimize(_walk(4), "cuckoo", nests=2, iterations=1).settings
+    assert result.settings == defaults | {"nests": 50, "iterations": 100_000} and "seed" not in result.settings
     assert result.stop_reason == "time limit of 0.05 s reached" and 0 < len(result.history) < 100_000

@@ -36,13 +36,12 @@ EXPLORED_SEGMENTS = 16
 def shape_starts(problem: TimingProblem, *, seed: int | None = None,
                  progress: Progress | None = None) -> OptimizationResult:
     """The sparse NLP from the cheap shapes of ``starts.py`` (deterministic; ``seed`` is ignored)."""
-    tracker = SearchTracker(problem, progress, 1)
     shapes = start_shapes(problem)
+    tracker = SearchTracker(problem, progress, 1, {"starts": list(shapes), "nlp": nlp_settings(problem, len(shapes))})
     found = windowed_start(problem) if windowed(problem) else None
-    settings: dict = {}
     if found is not None:
+        tracker.settings["windows"] = window_settings(problem, found[1])
         nlp_refine(problem, {WINDOWS: found[0]}, tracker, STITCHED_IPOPT)
-        settings["windows"] = window_settings(problem, found[1])
     if found is not None and any(start.status in SOLVED and start.feasible for start in tracker.starts):
         shapes = {WINDOWS: found[0]}
     else:  # no windows, or their start did not solve: the shapes themselves
@@ -57,8 +56,8 @@ def shape_starts(problem: TimingProblem, *, seed: int | None = None,
         nlp_refine(problem, {UNIFORM: shapes[UNIFORM]}, tracker)
     tracker.end_iteration()
     origin = "the stitched solutions of its windows" if WINDOWS in shapes else f"{len(shapes)} shapes"
-    return tracker.result("nlp", f"NLP from {origin}{_unconverged(tracker.starts)}", None,
-                          {"starts": list(shapes), "nlp": nlp_settings(problem, len(shapes)), **settings})
+    tracker.settings.update(starts=list(shapes), nlp=nlp_settings(problem, len(shapes)))
+    return tracker.result("nlp", f"NLP from {origin}{_unconverged(tracker.starts)}", None)
 
 
 
@@ -231,10 +230,8 @@ def optimize(problem: TimingProblem, algorithm: str = "default", *, time_limit_s
     with time_limit(time_limit_s):
         try:
             return optimizer(problem, **settings)
-        except OutOfTime as stop:
-            requested = {key: value for key, value in settings.items() if key not in NOT_SETTINGS}
-            return stop.tracker.result(algorithm, _stopped(time_limit_s, stop.tracker.starts), settings.get("seed"),
-                                       requested)
+        except OutOfTime as stop:  # the search's settings (``SearchTracker.settings``) go with what it found
+            return stop.tracker.result(algorithm, _stopped(time_limit_s, stop.tracker.starts), settings.get("seed"))
 
 
 def _stopped(time_limit_s: float | None, starts: list[StartReport]) -> str:

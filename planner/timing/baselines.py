@@ -29,7 +29,8 @@ def particle_swarm(problem: TimingProblem, *, particles: int = 20, iterations: i
         raise InputError(f"PSO needs particles >= 2 and iterations >= 1, got {particles}, {iterations}")
     check_population(problem, "particles", particles, particles)
     rng = np.random.default_rng(seed)
-    tracker = SearchTracker(problem, progress, iterations)
+    tracker = SearchTracker(problem, progress, iterations, {
+        "particles": particles, "iterations": iterations, "inertia": inertia, "cognitive": cognitive, "social": social})
     lower, upper = problem.search_box()
     span = upper - lower
     x = lower + span * rng.random((particles, len(lower)))
@@ -48,9 +49,7 @@ def particle_swarm(problem: TimingProblem, *, particles: int = 20, iterations: i
         better = evaluation.objective < personal_value
         personal[better], personal_value[better] = x[better], evaluation.objective[better]
         tracker.end_iteration()
-    settings = {"particles": particles, "iterations": iterations, "inertia": inertia,
-                "cognitive": cognitive, "social": social}
-    return tracker.result("pso", f"completed {iterations} iterations", seed, settings)
+    return tracker.result("pso", f"completed {iterations} iterations", seed)
 
 
 def scipy_differential_evolution(problem: TimingProblem, *, population: int = 15, evaluations: int | None = None,
@@ -74,15 +73,15 @@ def scipy_differential_evolution(problem: TimingProblem, *, population: int = 15
                                           f"x {len(lower)} segments each): raise it or lower the population")
     budget = max(6000, 2 * members) if evaluations is None else evaluations
     generations = max(1, budget // members - 1)
-    tracker = SearchTracker(problem, progress, generations)
+    tracker = SearchTracker(problem, progress, generations,
+                            {"population": population, "evaluations": budget, "generations": generations})
     from scipy.optimize import differential_evolution  # imported where used: 0.1 s of every run's start
 
     solution = differential_evolution(
         lambda x: tracker.evaluate(x.T).objective, list(zip(lower, upper)), popsize=population,
         maxiter=generations, tol=0, seed=np.random.default_rng(seed), polish=False, vectorized=True,
         updating="deferred", callback=lambda *args, **kwargs: tracker.end_iteration())
-    settings = {"population": population, "evaluations": budget, "generations": generations}
-    return tracker.result("de", solution.message, seed, settings)
+    return tracker.result("de", solution.message, seed)
 
 
 def multistart_slsqp(problem: TimingProblem, *, starts: int = 8, iterations: int = 100, seed: int | None = 0,
@@ -91,10 +90,10 @@ def multistart_slsqp(problem: TimingProblem, *, starts: int = 8, iterations: int
     if starts < 1:
         raise InputError(f"SLSQP needs starts >= 1, got {starts}")
     rng = np.random.default_rng(seed)
-    tracker = SearchTracker(problem, progress, starts)
+    tracker = SearchTracker(problem, progress, starts, {"starts": starts, "iterations": iterations})
     lower, upper = problem.search_box()
     points = tracker.evaluate(lower + (upper - lower) * rng.random((starts, len(lower)))).durations
     for start in points:
         refine(problem, start, tracker, max_iterations=iterations)
         tracker.end_iteration()
-    return tracker.result("slsqp", f"{starts} SLSQP starts", seed, {"starts": starts, "iterations": iterations})
+    return tracker.result("slsqp", f"{starts} SLSQP starts", seed)

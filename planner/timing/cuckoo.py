@@ -76,7 +76,11 @@ def cuckoo_search(problem: TimingProblem, *, nests: int = 20, iterations: int = 
                          "give optimizer.bounds_s")
     polish = repair if polish is None else polish
     rng = np.random.default_rng(seed)
-    tracker = SearchTracker(problem, progress, iterations)
+    settings = {"nests": nests, "iterations": iterations, "pa": pa, "alpha": alpha, "beta": beta,
+                "variant": variant, "polish": polish, "refine_starts": refine_starts}
+    if polish:
+        settings["nlp"] = nlp_settings(problem, refine_starts)
+    tracker = SearchTracker(problem, progress, iterations, settings)
     lower, upper = problem.search_box()
     dimension = len(lower)
     sigma = mantegna_sigma(beta)
@@ -101,13 +105,9 @@ def cuckoo_search(problem: TimingProblem, *, nests: int = 20, iterations: int = 
     if polish:
         best = np.argsort(fitness)[:refine_starts]
         nlp_refine(problem, {f"nest {rank + 1}": x[i] for rank, i in enumerate(best)}, tracker)
-    settings = {"nests": nests, "iterations": iterations, "pa": pa, "alpha": alpha, "beta": beta,
-                "variant": variant, "polish": polish, "refine_starts": refine_starts}
-    if polish:
-        settings["nlp"] = nlp_settings(problem, refine_starts)
     name = "cuckoo" if repair else "cuckoo-paper"
     return tracker.result(name, f"completed {iterations} iterations" + (" and NLP refinement" if polish else ""),
-                          seed, settings)
+                          seed)
 
 
 def _greedy(x, fitness, proposal, proposal_fitness):

@@ -84,7 +84,7 @@ import numpy as np
 from ..concurrency import map_forked, map_forked_until
 from ..interrupts import check as check_interrupted
 from ..kinematics import batch_scale_factors, jerk_energy, max_abs, position_range, segment_extrema
-from ..limits import FEASIBILITY_TOLERANCE, ratio_exceeded
+from ..limits import FEASIBILITY_TOLERANCE, range_exceeded, ratio_exceeded
 from ..native_output import stderr_captured
 from .formulations import FORMULATIONS, Scales, SegmentBlock
 from .problem import TimingProblem
@@ -564,7 +564,7 @@ def _settled_states(problem: TimingProblem, h: np.ndarray, states: np.ndarray) -
     meets = np.logical_not(ratio_exceeded(ratios).any(axis=1))  # (2, J)
     if limits.has_position_range:
         low, high = position_range(coefficients, durations)
-        meets &= (low >= limits.lower - FEASIBILITY_TOLERANCE) & (high <= limits.upper + FEASIBILITY_TOLERANCE)
+        meets &= ~range_exceeded(limits.range_excess(low, high))
     energy = jerk_energy(coefficients, durations)
     ruled = meets[1] & (~meets[0] | (energy[1] < energy[0]))
     settled = states.copy()

@@ -43,14 +43,16 @@ import numpy as np
 from ..errors import InfeasibleError, InputError
 from ..kinematics import Violation, batch_scale_factors, jerk_energy, position_range
 from ..limits import (
-    FEASIBILITY_TOLERANCE,
-    QUANTITIES,
+    LIMITED,
     JointLimits,
+    bounds_exceeded,
     in_degrees,
     in_degrees_apart,
+    range_exceeded,
     ratio_exceeded,
     time_scale_factor,
 )
+from ..read_only import ReadOnlyArrays, freeze_arrays
 from ..splines import FAMILIES, PiecewisePolynomial, SplineFamily, get_family, powers
 from ..validate import DURATION_BOUND_RANGE, finite_array, positive_durations
 from .lower_bound import pair_lower_bounds
@@ -65,8 +67,8 @@ SHAPE_FLOOR = 0.05
 
 
 @dataclass(frozen=True)
-class Evaluation:
-    """Batched evaluation of repaired candidates.
+class Evaluation(ReadOnlyArrays):
+    """Batched evaluation of repaired candidates (its arrays read-only copies).
 
     Attributes:
         durations: (B, S) repaired durations [s].
@@ -84,6 +86,9 @@ class Evaluation:
     position_excess: np.ndarray
     feasible: np.ndarray
     states: np.ndarray | None = None
+
+    def __post_init__(self):
+        freeze_arrays(self)
 
 
 class TimingProblem:
@@ -203,17 +208,20 @@ class TimingProblem:
             if ratio_exceeded(ratios).any():
                 d, j = (int(i) for i in np.unravel_index(np.argmax(ratios), ratios.shape))
                 limit = float(self.limits.magnitudes[d, j])
-                excess = Violation(self.limits.names[j], j, QUANTITIES[d], d + 1, float(ratios[d, j]) * limit, limit)
+                limited = LIMITED[d]
+                excess = Violation(self.limits.names[j], j, limited.name, limited.order, float(ratios[d, j]) * limit,
+                                   limit)
                 raise InfeasibleError(
                     f"infeasible with every duration at h_max = {h_max:g} s: joint {excess.joint} "
-                    f"{excess.quantity} reaches {in_degrees(excess.value, d + 1)}, limit {in_degrees(limit, d + 1)} "
+                    f"{excess.quantity} reaches {in_degrees(excess.value, excess.order)}, limit "
+                    f"{in_degrees(limit, excess.order)} "
                     f"({ratios[d, j]:.10g} times it)",
                     violation=excess)
         pairs, needed = pair_lower_bounds(self.via_points, self.limits)
         knots = self.family.via_knots(len(self.via_points))
         allowed = (knots[pairs[:, 1]] - knots[pairs[:, 0]]) * h_max  # (P,) the longest time between them [s]
         excess = needed / allowed[:, None]
-        if excess.size and excess.max() > 1 + FEASIBILITY_TOLERANCE:
+        if excess.size and ratio_exceeded(excess.max()):
             p, j = (int(i) for i in np.unravel_index(np.argmax(excess), excess.shape))
             first, last = (int(np.flatnonzero(self.via_index == k)[side]) for k, side in zip(pairs[p], (-1, 0)))
             segments = int(knots[pairs[p, 1]] - knots[pairs[p, 0]])
@@ -294,8 +302,7 @@ class TimingProblem:
         if not self.limits.has_position_range:
             return np.zeros(len(durations))
         low, high = position_range(coefficients, durations)
-        excess = np.maximum(self.limits.lower - low, high - self.limits.upper)
-        return np.maximum(excess.max(axis=1), 0.0)
+        return self.limits.range_excess(low, high).max(axis=1)
 
     @property
     def uses_jerk_energy(self) -> bool:
@@ -361,10 +368,8 @@ class TimingProblem:
         worst = time_scale_factor(ratios)
         total = h.sum(axis=1)
         value = total if self.objective_name == "time" else self.weights[0] * total + self.weights[1] * energy
-        feasible = ~ratio_exceeded(ratios).any(axis=(-2, -1)) & (position_excess <= FEASIBILITY_TOLERANCE)
-        feasible &= np.all(h >= self.duration_floor * (1 - 1e-12), axis=1)
-        if self.bounds is not None:
-            feasible &= np.all(h <= self.bounds[1] * (1 + 1e-12), axis=1)
+        feasible = ~ratio_exceeded(ratios).any(axis=(-2, -1)) & ~range_exceeded(position_excess)
+        feasible &= ~bounds_exceeded(h, (self.duration_floor, np.inf if self.bounds is None else self.bounds[1]))
         penalty = _PENALTY * (np.maximum(worst - 1.0, 0.0) + position_excess)
         return Evaluation(h, np.where(feasible, value, value + penalty * (1.0 + total)), ratios,
                           position_excess, feasible)

@@ -177,8 +177,12 @@ class SearchTracker:
     """Counts evaluations, keeps the best candidate seen and the per-iteration history; stops the
     search (``OutOfTime``) once a best candidate exists and the time limit has passed."""
 
-    def __init__(self, problem: TimingProblem, progress: Progress | None = None, total_iterations: int = 0):
+    def __init__(self, problem: TimingProblem, progress: Progress | None = None, total_iterations: int = 0,
+                 settings: dict | None = None):
+        """``settings``: every setting of the search, defaults included (``OptimizationResult.settings``), known
+        from its start: a run the time limit ends records them too."""
         self.problem = problem
+        self.settings = dict(settings or {})
         self.evaluations = 0
         self.best_durations: np.ndarray | None = None
         self.best_objective = np.inf
@@ -268,13 +272,14 @@ class SearchTracker:
             self._progress(len(self.history), self._total, self.best_objective)
         self.check_time()
 
-    def result(self, algorithm: str, stop_reason: str, seed: int | None, settings: dict) -> OptimizationResult:
-        """The result for the best candidate, re-checked exactly as durations (no repair)."""
+    def result(self, algorithm: str, stop_reason: str, seed: int | None) -> OptimizationResult:
+        """The result for the best candidate, re-checked exactly as durations (no repair), with the search's
+        ``settings``."""
         states = None if self.best_states is None else self.best_states[None]
         final = self.problem.evaluate_durations(self.best_durations, states)
         return OptimizationResult(
             algorithm=algorithm, durations=final.durations[0], total_time=float(final.durations[0].sum()),
             objective=float(final.objective[0]), ratios=final.ratios[0], feasible=bool(final.feasible[0]),
             evaluations=self.evaluations, wall_time_s=time.perf_counter() - self._start,
-            history=list(self.history), stop_reason=stop_reason, seed=seed, settings=settings,
+            history=list(self.history), stop_reason=stop_reason, seed=seed, settings=self.settings,
             starts=list(self.starts), knot_states=self.best_states)
