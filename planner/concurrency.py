@@ -4,7 +4,8 @@ The timing NLP's starts and the outputs' figure hold Python's global interpreter
 lock while they run (CasADi's IPOPT calls, matplotlib), so threads do not run
 them side by side; processes do. A forked child inherits everything already
 built (a CasADi program, a trajectory), so only the items and the results
-cross a pipe, pickled. Where the platform cannot fork, or one worker is asked
+cross a pipe, pickled. Where the platform cannot fork, the process runs other
+threads (forking then is unsafe, ``_fork_context``), or one worker is asked
 for (the default: the core count), the work runs in the calling process, in
 order: same results.
 
@@ -23,6 +24,7 @@ import multiprocessing
 import os
 import pickle
 import signal
+import threading
 import time
 from contextlib import contextmanager
 from multiprocessing.connection import wait
@@ -48,8 +50,14 @@ def core_count() -> int:
 
 
 def _fork_context():
-    """The ``fork`` multiprocessing context, or None where the platform has none (Windows)."""
-    return multiprocessing.get_context("fork") if "fork" in multiprocessing.get_all_start_methods() else None
+    """The ``fork`` multiprocessing context, or None where the platform has none (Windows) or where this
+    process runs other threads: a forked child holds only the thread that forked it, so a lock another
+    thread held at that moment (the import lock, an allocator's, a library's) stays held in the child for
+    good, and the child hangs at its first use (``planner.plan`` from several threads at once). The work
+    then runs in the calling thread, in order: same results."""
+    if threading.active_count() > 1 or "fork" not in multiprocessing.get_all_start_methods():
+        return None
+    return multiprocessing.get_context("fork")
 
 
 def map_forked(function: Callable[[Item], Result], items: Sequence[Item], workers: int | None = None) -> list[Result]:
@@ -71,8 +79,8 @@ def map_forked_until(function: Callable[[Item, Callable[[Result], None]], Result
 
     ``report(partial)``, which ``function`` may call as it goes, sends a result it could already
     return (the best so far): an item not done by the deadline gets its last one, or None if it sent
-    none. Without ``fork``, everything runs here, ``report`` does nothing and the deadline is not
-    enforced.
+    none. Without ``fork`` (``_fork_context``), everything runs here, ``report`` does nothing and the
+    deadline is left to ``function`` (the timing NLP's IPOPT stops at the time limit by itself).
     """
     workers = min(workers or core_count(), len(items))
     context = _fork_context()

@@ -1,11 +1,13 @@
 import os
+import threading
+import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from planner import InfeasibleError, UnknownRobotError
-from planner.concurrency import WarmWorkers, core_count, map_forked
+from planner.concurrency import WarmWorkers, core_count, map_forked, map_forked_until
 
 
 def square_with_pid(x):
@@ -25,6 +27,25 @@ def test_one_worker_or_one_item_runs_here():
     assert map_forked(square_with_pid, [4]) == [(16, os.getpid())]
     assert map_forked(square_with_pid, []) == []
     assert core_count() >= 1
+
+
+def test_with_other_threads_running_everything_runs_in_the_calling_thread():
+    """A child forked beside another thread keeps any lock that thread held, for good (``planner.plan``
+    from several threads at once hung in a forked NLP start until its time limit): with a second thread
+    alive, every map runs here, in order, to the same results, and a deadline is left to the work."""
+    stop = threading.Event()
+    other = threading.Thread(target=stop.wait)
+    other.start()
+    try:
+        assert map_forked(square_with_pid, list(range(5)), workers=3) == [(x * x, os.getpid()) for x in range(5)]
+        reported = map_forked_until(lambda x, report: square_with_pid(x), [2, 3], 2, time.monotonic() + 60)
+        assert reported == [(4, os.getpid()), (9, os.getpid())]
+        with WarmWorkers([None, None]) as workers:
+            assert workers.map(square_with_pid, [5, 6]) == [(25, os.getpid()), (36, os.getpid())]
+    finally:
+        stop.set()
+        other.join()
+    assert {pid for _, pid in map_forked(square_with_pid, [1, 2], workers=2)} != {os.getpid()}  # alone again
 
 
 def fail_on_odd(x):
