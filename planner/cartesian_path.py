@@ -81,7 +81,10 @@ def segment_deviation(a: pin.SE3, b: pin.SE3, positions: np.ndarray,
     """Distance [m] and angle [rad] of tool poses from the straight segment ``a`` -> ``b``.
 
     Args:
-        positions: (N, 3) tool positions [m]; rotations: (N, 3, 3) tool orientations.
+        a: the segment's start pose.
+        b: the segment's end pose.
+        positions: (N, 3) tool positions [m].
+        rotations: (N, 3, 3) tool orientations.
 
     Returns:
         (N,) distances to the line segment and (N,) angles to the slerp arc.
@@ -114,7 +117,10 @@ def tool_deviation(robot: Robot, trajectory: PiecewisePolynomial, poses: list[pi
     """How far the tool strays from the straight segments, sampled by forward kinematics.
 
     Args:
-        poses: the n user waypoints' poses; waypoint_via: (n,) their indices among the via-points.
+        robot: the robot whose tool frame is followed.
+        trajectory: the timed joint trajectory.
+        poses: the n user waypoints' poses.
+        waypoint_via: (n,) their indices among the via-points.
 
     Returns:
         Per via-point interval (m - 1,): the largest distance [m] and angle [rad]; per
@@ -170,10 +176,13 @@ def follow_straight_lines(robot: Robot, poses: list[pin.SE3], waypoint_q: np.nda
     """Insert poses until the timed trajectory's tool stays on the straight segments.
 
     Args:
-        poses: the n waypoints' poses; waypoint_q: (n, J) their configurations [rad].
+        robot: the robot whose tool frame is followed.
+        poses: the n waypoints' poses.
+        waypoint_q: (n, J) their configurations [rad].
         time_via_points: times (m, J) via-points; returns the trajectory and whatever
             else the caller keeps (returned with the path, for the final via-points).
-        tolerance_m, tolerance_rad: the largest distance [m] and angle [rad] allowed.
+        tolerance_m: the largest distance [m] allowed.
+        tolerance_rad: the largest angle [rad] allowed.
         note: told one line per round: how far the tool strays and what happens next.
         least_duration: the shortest segment the timing allows [s] and the task key that sets it
             (``trajectory.min_segment_s`` or ``optimizer.bounds_s``): where an interval beyond the

@@ -207,7 +207,9 @@ def torque_slow_down(torque: np.ndarray, gravity: np.ndarray, limit: np.ndarray)
     rest (d = 0). k = 1 / sqrt(x).
 
     Args:
-        torque, gravity: (K, J) tau and g(q) [N m]; limit: (J,) L [N m].
+        torque: (K, J) tau [N m].
+        gravity: (K, J) g(q) [N m].
+        limit: (J,) L [N m].
     """
     difference = torque - gravity
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -400,7 +402,11 @@ def meet_robot_limits(robot: Robot, trajectory: PiecewisePolynomial, torque_limi
     within the exact check's tolerance (``limits.ratio_exceeded``).
 
     Args:
-        torque_limit: (J,) [N m]; tool_speed [m/s]; tool_angular_speed [rad/s]; None: no such limit.
+        robot: the robot, for its dynamics and tool frame.
+        trajectory: the timed joint trajectory.
+        torque_limit: (J,) [N m], or None: no torque limit.
+        tool_speed: the tool's largest linear speed [m/s], or None.
+        tool_angular_speed: the tool's largest angular speed [rad/s], or None.
         waypoint_times: (n,) times [s] of the task's waypoints, to say where a gravity torque fails.
 
     Raises:

@@ -19,6 +19,7 @@ def json_ready(value, digits: int | None = None):
     """Plain JSON types from numpy values; non-finite floats (absent limits) become null.
 
     Args:
+        value: a number, array, dict, list or tuple of them, or anything JSON takes as it is.
         digits: significant digits floats keep (``None``: all). A report for people uses 12, which
             removes the float noise of sums (14.999999999999998 -> 15.0) and loses nothing measurable.
     """

@@ -413,6 +413,8 @@ def choose_branches(robot: Robot, limits: JointLimits, candidates: list[np.ndarr
     O(n K^2)); see the module docstring for ``start`` and how equal costs are resolved.
 
     Args:
+        robot: the robot: its joints' kinds, and the middle of its ranges to break ties without a start.
+        limits: the limits that time each transition (``transition_costs``).
         candidates: per waypoint, (K_i, nq) candidate configurations [rad].
         start: the robot's configuration before the first waypoint [rad], or None.
     """
@@ -440,6 +442,7 @@ def solve_waypoints(robot: Robot, poses: list[pin.SE3], *, hints: list[np.ndarra
     """Joint configurations for a sequence of poses (module docstring for the two rules).
 
     Args:
+        robot: the robot whose tool frame reaches the poses.
         poses: target tool poses.
         hints: optional configuration [rad] per waypoint: that waypoint's solution is the one its hint seeds.
         start: the robot's configuration before the task [rad] (``continuous``: the first seed;

@@ -254,7 +254,9 @@ def segment_ranges(coefficients: np.ndarray, durations: np.ndarray, orders=(0,))
     interior apart from its 7th-order ends), each at its own width.
 
     Args:
-        coefficients: (B, S, J, D+1); durations: (B, S) [s].
+        coefficients: (B, S, J, D+1) each segment's coefficients in its local time tau [s], lowest first.
+        durations: (B, S) [s].
+        orders: the derivative orders d (0: position).
 
     Returns:
         (low, high), each (len(orders), B, S, J) [SI units of each order].
@@ -278,7 +280,9 @@ def segment_extrema(coefficients: np.ndarray, durations: np.ndarray, orders=(0,)
     each segment (normalised time s = tau / h) and the roots of q^(d+1) inside.
 
     Args:
-        coefficients: (B, S, J, D+1); durations: (B, S) [s].
+        coefficients: (B, S, J, D+1) each segment's coefficients in its local time tau [s], lowest first.
+        durations: (B, S) [s].
+        orders: the derivative orders d (0: position).
 
     Returns:
         (locations, values), each (len(orders), B, S, J, C): s in [0, 1] (s = 0

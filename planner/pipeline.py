@@ -462,8 +462,9 @@ def check_sample_count(task: Task, total_time: float, *, lower_bound: bool = Fal
     """Refuse a trajectory whose outputs at ``trajectory.sample_rate_hz`` would exceed ``MAX_SAMPLES`` samples.
 
     Args:
-        total_time: the trajectory's duration [s], or (``lower_bound``) a lower bound on it,
-            so that a hopeless task is refused before it is timed.
+        task: the task, for its sample rate.
+        total_time: the trajectory's duration [s], or (``lower_bound``) a lower bound on it.
+        lower_bound: ``total_time`` is a lower bound, so that a hopeless task is refused before it is timed.
         slowed: how the robot-aware limits slowed the trajectory down, if they did: then the error
             names the limit that set the slow-down.
         out_of_time: the time limit ended the timing: then the error says it may have left the

@@ -747,6 +747,10 @@ def _numbers(where: str, data: dict, key: str, count: int | None = None, *, infi
     """``data[key]`` as a float vector: a JSON list of numbers, ``count`` long if given, never NaN.
 
     Args:
+        where: what the error names first (the recording and its part).
+        data: the JSON object read.
+        key: the entry's key.
+        count: the numbers it must hold, if given.
         infinite: whether +-inf is allowed (absent limits); otherwise every entry is finite.
     """
     value = data.get(key)
@@ -763,8 +767,8 @@ def _numbers(where: str, data: dict, key: str, count: int | None = None, *, infi
 
 
 def _writable_name(name: str) -> bool:
-    """A joint name the exports can write: not empty, no control character, and text UTF-8 encodes (JSON's
-    escapes can spell a lone surrogate such as \\udcff, which is no character)."""
+    r"""A joint name the exports can write: not empty, no control character, and text UTF-8 encodes (JSON's
+    escapes can spell a lone surrogate such as \udcff, which is no character)."""
     try:
         name.encode("utf-8")
     except UnicodeEncodeError:

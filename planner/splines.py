@@ -440,7 +440,8 @@ def hermite7(start: np.ndarray, end: np.ndarray, h: np.ndarray) -> np.ndarray:
     """The 7th-order polynomial on [0, h] with given (q, q', q'', q''') at both ends.
 
     Args:
-        start, end: (..., 4) position [rad], velocity, acceleration, jerk at tau = 0 and tau = h.
+        start: (..., 4) position [rad], velocity, acceleration, jerk at tau = 0.
+        end: (..., 4) the same at tau = h.
         h: durations [s], broadcastable to start[..., 0].
 
     Returns:

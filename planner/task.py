@@ -737,11 +737,18 @@ def make_task(*positional, name: str = "task", robot: dict | None = None, joints
     """A task built in Python, validated exactly as a task file (``parse_task``; errors name the same keys).
 
     Args:
+        *positional: none is taken (a ``TaskError`` says so).
+        name: the task's name (output folders, the recording).
         robot: ``{"urdf": path, "tool_frame": ...}`` or ``{"name": "ur5", "tool_frame": "tool0"}``.
         joints_deg: (n, J) joint via-points [deg] (a joint-space task), or
         poses: n tool poses: ``pinocchio.SE3`` objects or ``pose_entry`` mappings (a Cartesian task).
-        limits, ik, path, trajectory, optimizer: the task file's sections, keys as documented there
-            (numpy arrays are accepted wherever the file has lists).
+        limits: the task file's ``limits`` section, keys as documented there (numpy arrays are accepted
+            wherever the file has lists); so are the four below.
+        ik: the ``ik`` section.
+        path: the ``path`` section.
+        trajectory: the ``trajectory`` section.
+        optimizer: the ``optimizer`` section.
+        **unknown: none is taken (a ``TaskError`` names the first).
 
     Relative URDF paths are taken from the working directory.
 

@@ -263,6 +263,7 @@ def read_yaml(path, what: str = "YAML file"):
     """The plain data of the one YAML document in the file at ``path`` (see the module docstring).
 
     Args:
+        path: the file's path.
         what: what the file is, for messages ("task file", "limits file").
 
     Raises:

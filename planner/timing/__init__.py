@@ -213,9 +213,12 @@ def optimize(problem: TimingProblem, algorithm: str = "default", *, time_limit_s
     """Run the named optimizer (see ``OPTIMIZERS``) with its settings.
 
     Args:
+        problem: the timing problem.
+        algorithm: a name in ``OPTIMIZERS`` (``default``: the sparse NLP from chosen starts).
         time_limit_s: wall time [s] after which the search stops and returns the best candidate
             found so far (``stop_reason`` says so; every optimizer but ``cuckoo-paper``, which scores
             raw penalised durations, holds a feasible candidate from its first evaluation on). None: no limit.
+        **settings: the optimizer's own keywords (its function's), checked by ``checked_settings``.
     """
     if not isinstance(problem, TimingProblem):
         raise InputError(f"optimize takes a TimingProblem first, got {type(problem).__name__}")

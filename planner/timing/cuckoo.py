@@ -49,8 +49,10 @@ def cuckoo_search(problem: TimingProblem, *, nests: int = 20, iterations: int = 
 
     Args:
         problem: the timing problem.
-        nests: population size; iterations: generations (2 * nests evaluations each).
-        pa: discovery probability; beta: Levy index.
+        nests: population size.
+        iterations: generations (2 * nests evaluations each).
+        pa: discovery probability.
+        beta: Levy index.
         alpha: Levy step scale (default 0.3 for ``improved``, which measured best of 0.01 to 1
             on the paper case, and Yang and Deb's 0.01 for ``paper``).
         seed: seed of the ``numpy.random.Generator``; equal seeds give equal results.

@@ -191,7 +191,9 @@ class TimingProblem:
                                   f"{limit}", violation=outside)
 
     def _check_upper_bound_feasible(self) -> None:
-        """Refuse bounds no timing within can meet the limits with, where that is proven:
+        """Refuse bounds no timing within can meet the limits with, where that is proven.
+
+        That is where:
 
         * every duration is h_max (h_floor = h_max) and the family's fixed rule then breaks a limit;
         * some joint needs longer between two via-points than the segments between them last at

@@ -81,10 +81,12 @@ def windowed(problem: TimingProblem) -> bool:
 
 def _solve_window(problem: TimingProblem, window: tuple[int, int, int, int],
                   report: Callable | None = None) -> tuple[np.ndarray, np.ndarray, int] | None:
-    """The durations (S_w,) [s] of one window's NLP (``window_spans``), the best of its two shapes' solves
-    and, where they differ, their recombination's (``starts.recombination``; repaired: feasible and tight), the
-    chord of ``problem`` each of its segments belongs to (S_w,), and IPOPT's iterations over its solves;
-    None where neither solved. (``report``: ``map_forked_until``'s, unused: a window is whole or nothing.)"""
+    """One window's NLP (``window_spans``) solved; None where neither of its shapes solved.
+
+    Returns the durations (S_w,) [s], the best of its two shapes' solves and, where they differ, their
+    recombination's (``starts.recombination``; repaired: feasible and tight), the chord of ``problem`` each
+    of its segments belongs to (S_w,), and IPOPT's iterations over its solves. (``report``:
+    ``map_forked_until``'s, unused: a window is whole or nothing.)"""
     first, end, _, _ = window
     try:
         part = TimingProblem(problem.via_points[first:end + 1], problem.family, problem.limits,
