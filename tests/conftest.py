@@ -122,12 +122,50 @@ def assert_plan_holds(result) -> None:
     chebyshev = np.polynomial.Polynomial(np.polynomial.chebyshev.cheb2poly([0] * degree + [1]))
     largest = np.abs(chebyshev(np.polynomial.Polynomial([-1.0, 2.0])).coef).max()
     assert np.abs(normalized[..., 1:]).max() <= 20 * largest * motion
+    assert_summary_figures(result, summary)
     # The trajectory passes through every via-point, in order, at its knot.
     via = result.via_points
     np.testing.assert_allclose(trajectory.evaluate(np.asarray(summary["via_times_s"])), via, atol=1e-9)
     steps = np.abs(np.diff(via, axis=0))
     assert trajectory.total_time >= (steps / limits.velocity).max(axis=1).sum() * (1 - 1e-9)
     assert trajectory.total_time >= rest_to_rest_time(np.abs(via[-1] - via[0]), limits).max() * (1 - 1e-9)
+
+
+def assert_summary_figures(result, summary: dict, nodes: int = 400) -> None:
+    """summary.json's figures against dense samples of the trajectory: the total time; the position range and
+    every ratio to a limit (exact: no sample beyond them, and some sample within the sampling's reach of them,
+    from the next derivative's largest sample and the widest gap between samples) from samples at
+    Gauss-Legendre nodes (``nodes`` per segment, strictly inside it, where the segment's own polynomial holds:
+    a knot's jerk is the next segment's) and at the knots; the mean |q^(d)| and the jerk energy by
+    Gauss-Legendre quadrature on those nodes (exact for the energy)."""
+    trajectory, limits = result.trajectory, result.limits
+    assert summary["total_time_s"] == pytest.approx(trajectory.total_time, rel=1e-11)
+    s, w = np.polynomial.legendre.leggauss(nodes)
+    knots = np.asarray(trajectory.knot_times)
+    moving = [(a, b) for a, b in zip(knots[:-1], knots[1:]) if b > a]
+    inside = np.concatenate([a + (b - a) * (s + 1) / 2 for a, b in moving])
+    weights = np.concatenate([(b - a) / 2 * w for a, b in moving])
+    times = np.concatenate((inside, knots))
+    half_gap = np.diff(np.sort(times)).max() / 2
+    values = [trajectory.evaluate(times, order) for order in range(5)]
+    largest = [np.abs(v).max(axis=0) for v in values]
+    reported = [np.asarray(summary["position_range_deg"][side]) for side in ("min", "max")]
+    reach = np.rad2deg(largest[1] * half_gap) * 1.01 + 1e-9  # |q(t*) - q(t)| <= max|q'| |t* - t|
+    assert np.all(np.rad2deg(values[0].min(axis=0)) >= reported[0] - 1e-9)
+    assert np.all(np.rad2deg(values[0].max(axis=0)) <= reported[1] + 1e-9)
+    assert np.all(np.rad2deg(values[0].min(axis=0)) <= reported[0] + reach)
+    assert np.all(np.rad2deg(values[0].max(axis=0)) >= reported[1] - reach)
+    keys = ("velocity_deg_s", "acceleration_deg_s2", "jerk_deg_s3")
+    for d, (quantity, key) in enumerate(zip(("velocity", "acceleration", "jerk"), keys), start=1):
+        ratio = np.array([np.nan if r is None else r for r in summary["max_ratio"][quantity]], dtype=float)
+        bound = limits.magnitudes[d - 1]
+        assert np.all(largest[d] / bound <= ratio * (1 + 1e-9) + 1e-12)
+        assert np.all(largest[d] / bound >= ratio - (largest[d + 1] * half_gap * 1.01 + 1e-9) / bound)
+        inner = np.abs(values[d][:len(inside)])
+        mean = np.rad2deg(weights @ inner / trajectory.total_time)
+        np.testing.assert_allclose(summary["mean_abs"][key], mean, rtol=1e-4, atol=1e-9 * (1 + mean.max()))
+    energy = weights @ values[3][:len(inside)] ** 2
+    np.testing.assert_allclose(summary["jerk_energy_rad2_s5"], energy, rtol=1e-9, atol=1e-12 * (1 + energy.max()))
 
 
 #: Four tool poses of the UR5 pick-and-place (down, up, across), for robot-limit and straight-line tasks.
