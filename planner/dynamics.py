@@ -212,7 +212,7 @@ def torque_slow_down(torque: np.ndarray, gravity: np.ndarray, limit: np.ndarray)
         limit: (J,) L [N m].
     """
     difference = torque - gravity
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # a ratio past float range is inf
         upper, lower = (limit - gravity) / difference, (-limit - gravity) / difference
         x_high = np.where(difference > 0, upper, np.where(difference < 0, lower, np.inf))
         x_low = np.where(difference > 0, lower, np.where(difference < 0, upper, -np.inf))

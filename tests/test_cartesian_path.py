@@ -6,8 +6,9 @@ import numpy as np
 import pinocchio as pin
 import pytest
 import yaml
-from hypothesis import given
+from hypothesis import assume, given
 from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
 from scipy.spatial.transform import Rotation, Slerp
 
 from conftest import UR5_FAST, UR5_PICK_POSES
@@ -31,13 +32,13 @@ def dense_deviation(a_position, a_rotation, b_position, b_rotation, positions, r
     return distance, angle
 
 
-@given(st.integers(0, 2**31))
-def test_segment_deviation_matches_a_dense_search(seed):
-    rng = np.random.default_rng(seed)
-    a, b = (pin.SE3(Rotation.random(random_state=rng.integers(2**31)).as_matrix(), rng.uniform(-1, 1, 3))
-            for _ in range(2))
-    positions = rng.uniform(-1, 1, (5, 3))
-    rotations = Rotation.random(5, random_state=rng.integers(2**31)).as_matrix()
+@given(arrays(float, (7, 3), elements=st.floats(-1, 1)), arrays(float, (7, 4), elements=st.floats(-1, 1)))
+def test_segment_deviation_matches_a_dense_search(translations, quaternions):
+    """Two end poses and five tool poses, drawn as arrays (quaternions at least 0.1 long, normalised)."""
+    assume(np.all(np.linalg.norm(quaternions, axis=1) >= 0.1))
+    matrices = Rotation.from_quat(quaternions).as_matrix()
+    a, b = (pin.SE3(matrices[i], translations[i]) for i in range(2))
+    positions, rotations = translations[2:], matrices[2:]
     # Include poses on the segment itself: both deviations vanish there.
     on = [interpolate_pose(a, b, u) for u in (0.0, 0.3, 1.0)]
     positions = np.vstack([positions, [p.translation for p in on]])

@@ -118,14 +118,15 @@ def test_a_pendulum_timed_with_its_torque_in_the_nlp_by_a_family_of_cut_rounds_m
     assert 0.999 <= ratio <= 1 + 1e-5
 
 
-@given(st.integers(0, 2**32 - 1))
+@given(arrays(float, 4, elements=st.floats(1, 10)),
+       arrays(float, (30, 4), elements=st.floats(-1, 1, exclude_min=True, exclude_max=True)),
+       arrays(float, (30, 4), elements=st.floats(-9, 9)))
 @settings(max_examples=50, deadline=None)
-def test_the_slow_down_law_meets_every_limit_and_is_tight(seed):
-    """Slowed k times, tau_k = g + (tau - g) / k^2: within +-L at every sample, at the bound at the worst one."""
-    rng = np.random.default_rng(seed)
-    limit = rng.uniform(1, 10, 4)
-    gravity = rng.uniform(-1, 1, (30, 4)) * limit
-    torque = gravity + rng.normal(0, 3, (30, 4)) * limit
+def test_the_slow_down_law_meets_every_limit_and_is_tight(limit, gravity_share, motion_share):
+    """Slowed k times, tau_k = g + (tau - g) / k^2: within +-L at every sample, at the bound at the worst one
+    (gravity strictly inside the limit: at it, a motion pushing further is met by no finite k)."""
+    gravity = gravity_share * limit
+    torque = gravity + motion_share * limit
     lowest, highest = torque_slow_down(torque, gravity, limit)
     assert np.all(lowest >= 1) and np.all(highest == np.inf)  # gravity within the limit: any slower pace serves
     k = lowest.max()
@@ -137,15 +138,14 @@ def test_the_slow_down_law_meets_every_limit_and_is_tight(seed):
     assert np.all(lowest[within] == 1)
 
 
-@given(st.integers(0, 2**32 - 1))
+@given(arrays(float, 3, elements=st.floats(1, 10)), arrays(float, (40, 3), elements=st.floats(-2, 2)),
+       arrays(float, (40, 3), elements=st.floats(-9, 9)))
 @settings(max_examples=50, deadline=None)
-def test_the_slow_downs_each_sample_allows_are_exactly_the_interval(seed):
+def test_the_slow_downs_each_sample_allows_are_exactly_the_interval(limit, gravity_share, motion_share):
     """Gravity beyond the limit too: k meets a sample's limit exactly when lowest <= k <= highest
     (checked on a grid of k from 1 to 10 against the law itself)."""
-    rng = np.random.default_rng(seed)
-    limit = rng.uniform(1, 10, 3)
-    gravity = rng.uniform(-2, 2, (40, 3)) * limit
-    torque = gravity + rng.normal(0, 3, (40, 3)) * limit
+    gravity = gravity_share * limit
+    torque = gravity + motion_share * limit
     lowest, highest = torque_slow_down(torque, gravity, limit)
     for k in np.geomspace(1, 10, 200):
         meets = np.abs(gravity + (torque - gravity) / k**2) <= limit

@@ -6,6 +6,7 @@ import pinocchio as pin
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
 
 from planner import IKError, InputError, paper
 from planner.ik import (
@@ -231,11 +232,18 @@ def test_pose_solutions_are_distinct_in_range_and_include_the_generating_one(pum
     assert min(np.abs(np.angle(np.exp(1j * (w - q)))).max() for w in wrapped) <= 1e-6
 
 
-@given(st.integers(2, 5), st.lists(st.integers(1, 4), min_size=5, max_size=5), st.integers(0, 2**31))
-def test_branch_choice_is_the_brute_force_optimum(puma, count, sizes, seed):
-    rng = np.random.default_rng(seed)
-    candidates = [rng.uniform(-3, 3, (k, puma.dof)) for k in sizes[:count]]
-    start = rng.uniform(-3, 3, puma.dof)
+@st.composite
+def candidate_sets(draw, dof: int = 6):
+    """2 to 5 waypoints' candidate configurations (1 to 4 each) in [-3, 3] rad and a start, drawn as arrays."""
+    radians = st.floats(-3.0, 3.0)
+    sizes = draw(st.lists(st.integers(1, 4), min_size=2, max_size=5))
+    return ([draw(arrays(float, (k, dof), elements=radians)) for k in sizes],
+            draw(arrays(float, dof, elements=radians)))
+
+
+@given(candidate_sets())
+def test_branch_choice_is_the_brute_force_optimum(puma, drawn):
+    candidates, start = drawn
     paper_limits = paper.paper_limits()  # with the PUMA's finite ranges: no joint turns freely
     limits = puma.limits.with_overrides(**{q: getattr(paper_limits, q) for q in ("velocity", "acceleration", "jerk")})
     chosen = choose_branches(puma, limits, candidates, start)
