@@ -11,7 +11,7 @@ import numpy as np
 
 def freeze_arrays(instance) -> None:
     """Replace every NumPy array field of the dataclass ``instance`` by a read-only copy (call it
-    from ``__post_init__``, after any conversion); a mapping field's arrays are copied likewise."""
+    from ``__post_init__``, after any conversion); a mapping's or a tuple's arrays are copied likewise."""
     for field in dataclasses.fields(instance):
         value = getattr(instance, field.name)
         if isinstance(value, np.ndarray):
@@ -19,6 +19,9 @@ def freeze_arrays(instance) -> None:
         elif isinstance(value, dict) and any(isinstance(item, np.ndarray) for item in value.values()):
             object.__setattr__(instance, field.name, {key: read_only(item) if isinstance(item, np.ndarray) else item
                                                       for key, item in value.items()})
+        elif isinstance(value, tuple) and any(isinstance(item, np.ndarray) for item in value):
+            object.__setattr__(instance, field.name, tuple(read_only(item) if isinstance(item, np.ndarray) else item
+                                                           for item in value))
 
 
 def read_only(array: np.ndarray) -> np.ndarray:

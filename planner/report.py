@@ -12,6 +12,7 @@ from typing import Callable
 import numpy as np
 
 from .limits import PROFILE_QUANTITIES, JointLimits
+from .read_only import ReadOnlyArrays, freeze_arrays
 from .splines import PiecewisePolynomial
 
 #: Most samples per joint drawn in a profile figure (about 1200 pixels wide: four per pixel column).
@@ -36,7 +37,7 @@ def markdown_table(header: list[str], rows: list[list]) -> str:
 
 
 @dataclass(frozen=True)
-class ProfileColumn:
+class ProfileColumn(ReadOnlyArrays):
     """One trajectory drawn as a column of four profiles, with optional reference values.
 
     Attributes:
@@ -54,6 +55,9 @@ class ProfileColumn:
     waypoint_via: np.ndarray | None = None
     points: tuple[np.ndarray, np.ndarray] | None = None
     levels: np.ndarray | None = None
+
+    def __post_init__(self):
+        freeze_arrays(self)
 
 
 def _dashes(joint: int, joints: int) -> tuple:

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from ..limits import JointLimits
+from ..read_only import ReadOnlyArrays, freeze_arrays
 from ..splines import HYBRID_END, HYBRID_END_REFLECTED, SplineFamily, derivative_coefficients, hermite7
 
 
@@ -53,7 +54,7 @@ FAR_ABOVE = 1e3
 
 
 @dataclass(frozen=True)
-class Scales:
+class Scales(ReadOnlyArrays):
     """Characteristic magnitudes that scale the NLP's variables and constraints to order one.
 
     Attributes:
@@ -67,6 +68,9 @@ class Scales:
     time: float
     derivatives: np.ndarray
     segment_times: np.ndarray
+
+    def __post_init__(self):
+        freeze_arrays(self)
 
     @classmethod
     def of(cls, limits: JointLimits, durations: np.ndarray, peaks: np.ndarray) -> "Scales":

@@ -86,6 +86,7 @@ from ..interrupts import check as check_interrupted
 from ..kinematics import batch_scale_factors, jerk_energy, max_abs, position_range, segment_extrema
 from ..limits import FEASIBILITY_TOLERANCE, range_exceeded, ratio_exceeded
 from ..native_output import stderr_captured
+from ..read_only import ReadOnlyArrays, freeze_arrays
 from .formulations import FORMULATIONS, Scales, SegmentBlock
 from .problem import TimingProblem
 from .result import SOLVED, SearchTracker, StartReport, remaining_time
@@ -246,7 +247,7 @@ def touch_certificate(p, touch: int) -> list:
 
 
 @dataclass(frozen=True)
-class NLPOutcome:
+class NLPOutcome(ReadOnlyArrays):
     """What one NLP solve from one start returned (durations not yet repaired).
 
     Attributes:
@@ -265,6 +266,9 @@ class NLPOutcome:
     status: str
     certificates: int
     states: np.ndarray | None = None
+
+    def __post_init__(self):
+        freeze_arrays(self)
 
 
 class TimingNLP:

@@ -63,6 +63,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..dynamics import joint_torques
+from ..read_only import ReadOnlyArrays, freeze_arrays
 from ..robot import Robot
 from ..splines import derivative_coefficients, polyval
 
@@ -73,7 +74,7 @@ MODEL_TOLERANCE = 1e-3
 
 
 @dataclass(frozen=True)
-class RobotConstraints:
+class RobotConstraints(ReadOnlyArrays):
     """The robot-aware limits the NLP imposes.
 
     Attributes:
@@ -87,6 +88,9 @@ class RobotConstraints:
     torque: np.ndarray | None
     tool_speed: float | None
     tool_angular_speed: float | None = None
+
+    def __post_init__(self):
+        freeze_arrays(self)
 
     @property
     def supported(self) -> bool:
@@ -113,7 +117,7 @@ class RobotConstraints:
 
 
 @dataclass(frozen=True)
-class FrozenModel:
+class FrozenModel(ReadOnlyArrays):
     """The model of the module docstring at P sample points (arrays over the points first).
 
     Attributes:
@@ -133,6 +137,9 @@ class FrozenModel:
     speed_velocity: np.ndarray | None
     speed_position: np.ndarray | None
     speed_offset: np.ndarray | None
+
+    def __post_init__(self):
+        freeze_arrays(self)
 
 
 def sample_points(segments: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
