@@ -129,7 +129,7 @@ def _replay(args) -> int:
         raise InputError(f"--time {given} s is outside the recording's 0 to {end} s")
     if args.check:  # first: exports of a recording that fails its check are not written
         check = recorded.check()
-        findings = (["VIOLATIONS: " + "; ".join(check.violations)] if check.violations else []) + (
+        findings = (["VIOLATIONS: " + "; ".join(check.findings)] if check.findings else []) + (
             ["SAMPLES OFF THE TRAJECTORY"] if check.deviation > check.tolerance else [])
         skipped = [option for option, given in (("--export-csv", target), ("--screenshot", args.screenshot))
                    if given is not None and not check.passed]

@@ -54,7 +54,7 @@ from typing import TypeGuard
 import numpy as np
 
 from .errors import InputError, RecordingError, ViewerError, shown
-from .kinematics import continuity_breaks, kinematic_figures, via_point_misses
+from .kinematics import Break, Violation, continuity_breaks, kinematic_figures, via_point_misses
 from .limits import DEGREE_UNITS, PROFILE_QUANTITIES, QUANTITIES, JointLimits, seconds_text
 from .outputs import not_utf8, utf8_path
 from .read_only import ReadOnlyArrays, freeze_arrays
@@ -568,22 +568,31 @@ class RecordingCheck:
     """What ``RecordedPlan.check`` finds.
 
     Attributes:
-        violations: one line per limit the exact trajectory exceeds, and per break of its continuity or
-            of its rest at the ends (``continuity_breaks``); empty when all hold.
+        violations: each limit the exact trajectory exceeds (joint, quantity, value, limit), the exact
+            check's own (``KinematicFigures.violations``); empty when all hold.
+        breaks: each break of its continuity or of its rest at the ends (``continuity_breaks``), and each
+            via-point it misses (``via_point_misses``): lines with the joint, quantity, value and tolerance
+            as fields.
         largest_ratio: largest constraint ratio max|q^(d)| / limit over joints and orders.
         deviation: largest |sample - trajectory at the sample's time| [rad].
         tolerance: the deviation allowed by Rerun's whole-nanosecond times [rad].
     """
 
-    violations: list[str]
+    violations: tuple[Violation, ...]
+    breaks: tuple[Break, ...]
     largest_ratio: float
     deviation: float
     tolerance: float
 
     @property
+    def findings(self) -> list[str]:
+        """One line per violation, then per break (empty when the trajectory holds)."""
+        return [str(v) for v in self.violations] + list(self.breaks)
+
+    @property
     def passed(self) -> bool:
-        """Every limit holds and every sample lies on the trajectory."""
-        return not self.violations and self.deviation <= self.tolerance
+        """Every limit holds, the trajectory is whole, and every sample lies on it."""
+        return not self.violations and not self.breaks and self.deviation <= self.tolerance
 
 
 @dataclass(frozen=True)
@@ -623,10 +632,10 @@ class RecordedPlan(ReadOnlyArrays):
         largest = float(np.abs(self.positions).max(initial=0.0))
         tolerance = _TIME_QUANTUM_NS * 1e-9 * float(figures.max_abs[0].max()) + 1e-12 + 8 * float(np.spacing(largest))
         ratio = float(np.nan_to_num(figures.ratios(self.limits)).max())
-        found = [str(v) for v in figures.violations(self.limits)] + continuity_breaks(self.trajectory, self.joint_names)
+        breaks = continuity_breaks(self.trajectory, self.joint_names)
         if self.via_points is not None:
-            found += via_point_misses(self.trajectory, self.via_points, self.joint_names)
-        return RecordingCheck(found, ratio, deviation, tolerance)
+            breaks += via_point_misses(self.trajectory, self.via_points, self.joint_names)
+        return RecordingCheck(tuple(figures.violations(self.limits)), tuple(breaks), ratio, deviation, tolerance)
 
 
 def read_recording(path) -> RecordedPlan:

@@ -802,7 +802,9 @@ def test_a_definition_whose_trajectory_breaks_its_limits_fails_its_check(tmp_pat
     definition = json.dumps(trajectory_definition(trajectory, tight, ["shoulder", "elbow"]))
     path = write_like_planner(tmp_path / "forged.rrd", definition=definition)
     check = read_recording(path).check()
-    assert not check.passed and check.deviation <= check.tolerance and check.violations
+    assert not check.passed and check.deviation <= check.tolerance and not check.breaks
+    assert [(v.index, v.quantity, v.limit) for v in check.violations] == [(0, "velocity", 0.1), (1, "velocity", 0.1)]
+    assert all(abs(v.value) > v.limit for v in check.violations)
     assert main(["replay", str(path), "--check"]) == 1
     said = capsys.readouterr().out
     assert "VIOLATIONS: " in said and "velocity" in said and "limits hold" not in said
@@ -822,6 +824,8 @@ def test_a_recording_whose_trajectory_jumps_fails_its_check(tmp_path, capsys):
     write_recording(result, tmp_path / "jump.rrd")
     check = read_recording(tmp_path / "jump.rrd").check()
     assert check.deviation <= check.tolerance and check.largest_ratio <= 1 and not check.passed
+    assert not check.violations and (check.breaks[0].joint, check.breaks[0].quantity) == (0, "position")
+    assert check.breaks[0].value == pytest.approx(np.deg2rad(30)) and check.findings[0] == check.breaks[0]
     assert main(["replay", str(tmp_path / "jump.rrd"), "--check"]) == 1
     said = capsys.readouterr().out
     assert "VIOLATIONS: joint a position jumps by 30 deg at knot 2 (t = 2 s)" in said and "limits hold" not in said

@@ -47,7 +47,7 @@ def main(argv=None) -> int:
           f"T = {recorded.trajectory.total_time:.4f} s (summary: {summary['total_time_s']:.4f} s)")
     print(f"  recorded samples vs coefficients.json: {gap_file:.2e} rad")
     print(f"  recorded samples vs recorded trajectory: {check.deviation:.2e} rad (allowed {check.tolerance:.1e})")
-    print(f"  limits: {'hold' if not check.violations else '; '.join(check.violations)}")
+    print(f"  limits: {'hold' if not check.findings else '; '.join(check.findings)}")
     agrees = abs(recorded.trajectory.total_time - summary["total_time_s"]) <= 1e-9 * summary["total_time_s"]
     return 0 if check.passed and gap_file <= 1e-8 and agrees else 1
 
