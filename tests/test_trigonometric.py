@@ -1,0 +1,97 @@
+"""Trigonometric Hermite segments (planner/trigonometric.py) against independent computations: finite
+differences of the basis, dense sampling, numerical quadrature, numpy's polynomial roots."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+from scipy.integrate import quad
+
+from planner import trigonometric as trig
+
+STATES = arrays(float, (2, 4), elements=st.floats(-5.0, 5.0))
+DURATIONS = st.floats(0.05, 20.0)
+
+
+def basis_value(coefficients: np.ndarray, h: float, tau: float) -> float:
+    """q(tau) from the basis as written (``trig.BASIS``), term by term."""
+    theta = np.pi * tau / h
+    return float(sum(a * (np.cos(k * theta) if kind == "cos" else np.sin(k * theta))
+                     for a, (k, kind) in zip(coefficients, trig.BASIS)))
+
+
+def test_the_hermite_system_is_well_conditioned_on_zero_to_pi_with_sin_4_theta():
+    assert trig.HERMITE_CONDITION == pytest.approx(73.7, abs=0.05)
+
+
+@given(STATES, DURATIONS)
+def test_a_segment_meets_its_end_states_in_time(states, h):
+    """Position, velocity, acceleration and jerk at tau = 0 and h are the given ones, evaluated by the module
+    and, for the position and velocity, from the basis term by term (central differences for the velocity)."""
+    a = trig.hermite_coefficients(states[0], states[1], h)
+    found = np.array([trig.values(a, h, np.array([0.0, h]), order) for order in range(4)]).T  # (2, 4)
+    scale = 1 + np.abs(states).max() * max(1.0, h ** 3)
+    np.testing.assert_allclose(found, states, atol=1e-9 * scale)
+    assert basis_value(a, h, 0.0) == pytest.approx(states[0, 0], abs=1e-9 * scale)
+    assert basis_value(a, h, h) == pytest.approx(states[1, 0], abs=1e-9 * scale)
+    step = 1e-6 * h
+    middle = h / 2
+    difference = (basis_value(a, h, middle + step) - basis_value(a, h, middle - step)) / (2 * step)
+    assert trig.values(a, h, np.array([middle]), 1)[0] == pytest.approx(difference, rel=1e-5, abs=1e-5 * scale / h)
+
+
+@given(arrays(float, 8, elements=st.floats(-3.0, 3.0)), DURATIONS)
+def test_each_derivative_is_the_finite_difference_of_the_one_below(a, h):
+    tau = np.linspace(0.1, 0.9, 7) * h
+    step = 1e-5 * h
+    for order in range(1, 4):
+        difference = (trig.values(a, h, tau + step, order - 1) - trig.values(a, h, tau - step, order - 1)) / (2 * step)
+        scale = np.abs(a).sum() * (4 * np.pi / h) ** order
+        np.testing.assert_allclose(trig.values(a, h, tau, order), difference, atol=1e-6 * scale)
+
+
+@settings(max_examples=60)
+@given(STATES, DURATIONS, st.sampled_from([0, 1, 2, 3]))
+def test_exact_extremes_bound_dense_samples_and_are_reached(states, h, order):
+    a = trig.hermite_coefficients(states[0], states[1], h)
+    low, high = trig.extremes(a, h, order)
+    sampled = trig.values(a, h, np.linspace(0.0, h, 20001), order)
+    scale = max(np.abs(sampled).max(), 1e-300)
+    assert sampled.min() >= low - 1e-9 * scale and sampled.max() <= high + 1e-9 * scale
+    # within what 20,001 samples can miss near an extreme (the next derivative's largest, half a step)
+    reach = np.abs(trig.values(a, h, np.linspace(0.0, h, 20001), order + 1)).max() * h / 40000 + 1e-12 * scale
+    assert sampled.min() <= low + reach and sampled.max() >= high - reach
+
+
+def test_extremes_of_a_segment_without_sin_4_theta_use_the_lower_degree():
+    """A segment whose sin 4 theta coefficient is 0 (its critical-point polynomial of degree 6, not 8):
+    q = cos theta on [0, pi] has its extremes at the ends, q' = -pi/h sin theta its minimum in the middle."""
+    a = np.array([0.0, 1.0, 0, 0, 0, 0, 0, 0])
+    assert trig.extremes(a, 2.0, 0) == pytest.approx((-1.0, 1.0))
+    assert trig.extremes(a, 2.0, 1) == pytest.approx((-np.pi / 2, 0.0), abs=1e-12)
+    assert trig.extremes(np.zeros(8), 1.0, 2) == (0.0, 0.0)
+
+
+@settings(max_examples=30)
+@given(STATES, DURATIONS)
+def test_jerk_energy_is_the_integral_of_the_squared_jerk(states, h):
+    a = trig.hermite_coefficients(states[0], states[1], h)
+    integral, _ = quad(lambda tau: trig.values(a, h, np.array([tau]), 3)[0] ** 2, 0.0, h, limit=200,
+                       epsabs=0.0, epsrel=1e-11)
+    assert trig.jerk_energy(a, h) == pytest.approx(integral, rel=1e-8, abs=1e-12)
+
+
+def test_batches_of_segments_match_one_at_a_time():
+    rng = np.random.default_rng(5)
+    starts, ends = rng.uniform(-2, 2, (2, 3, 4, 4))
+    h = rng.uniform(0.5, 3.0, (3, 4))
+    a = trig.hermite_coefficients(starts, ends, h)
+    low, high = trig.extremes(a, h, 1)
+    energy = trig.jerk_energy(a, h)
+    for i in range(3):
+        for j in range(4):
+            single = trig.hermite_coefficients(starts[i, j], ends[i, j], h[i, j])
+            np.testing.assert_allclose(a[i, j], single)
+            assert (low[i, j], high[i, j]) == pytest.approx(trig.extremes(single, h[i, j], 1))
+            assert energy[i, j] == pytest.approx(trig.jerk_energy(single, h[i, j]))
