@@ -20,10 +20,12 @@ and on Linux a parent killed outright (SIGKILL) takes its children with it.
 from __future__ import annotations
 
 import ctypes
+import faulthandler
 import multiprocessing
 import os
 import pickle
 import signal
+import tempfile
 import threading
 import time
 from contextlib import contextmanager
@@ -38,7 +40,10 @@ Result = TypeVar("Result")
 
 
 class WorkerLost(RuntimeError):
-    """A worker process ended without its results (killed by a signal, the out-of-memory killer, ...)."""
+    """A worker process ended without its results (killed by a signal, the out-of-memory killer, ...);
+    ``said``: what it wrote on stderr, where that was kept (``call_in_child``), else empty."""
+
+    said: str = ""
 
 
 def core_count() -> int:
@@ -171,6 +176,44 @@ def _map(function: Callable[[Item], Result], items: Sequence[Item], workers: int
     finally:
         _end(children)
     return results
+
+
+def call_in_child(function: Callable[[Item], Result], item: Item) -> Result:
+    """``function(item)`` in a forked child, its result or exception brought back through a pipe: a failure
+    that kills a process outright (a native library's abort, such as a Rust panic in a decoder) ends the
+    child, not the caller, and is raised here as ``WorkerLost`` carrying what the child wrote on stderr
+    (``said``), which stays off the caller's. Without ``fork`` (``_fork_context``), ``function(item)``
+    runs here."""
+    context = _fork_context()
+    if context is None:
+        return function(item)
+    children: list = []
+    results: dict[int, Result] = {}
+    with tempfile.TemporaryFile() as stderr:
+        try:
+            receive, send = context.Pipe(duplex=False)
+            process = context.Process(target=_serve_quietly, args=(function, item, send, os.getpid(), stderr.fileno()),
+                                      daemon=True)
+            with _forking():  # started and listed in one step: the cleanup below ends the child
+                process.start()
+                children.append((process, receive))
+            send.close()
+            _collect(receive, [0], process, results)
+        except WorkerLost as lost:
+            stderr.seek(0)
+            lost.said = stderr.read(16000).decode("utf-8", "replace")  # (a backtrace follows its cause)
+            raise
+        finally:
+            _end(children)
+    return results[0]
+
+
+def _serve_quietly(function: Callable, item, send, parent: int, stderr: int) -> None:
+    """``call_in_child``'s child: its stderr to the file ``stderr`` (and no ``faulthandler`` dump, which
+    writes where it was enabled), then ``_serve`` of the one item."""
+    os.dup2(stderr, 2)
+    faulthandler.disable()
+    _serve(function, [item], send, parent)
 
 
 def _end(children: list) -> None:

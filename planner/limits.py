@@ -3,12 +3,13 @@ values are said to a user: in degrees (the task files' units) with the joint's n
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
-from typing import Callable
+from typing import Callable, Iterable
 
 import numpy as np
 
-from .errors import InputError
+from .errors import InputError, shown
 from .read_only import ReadOnlyArrays, freeze_arrays
 from .validate import finite_array, float_array
 
@@ -55,6 +56,10 @@ UNITS = tuple(q.unit for q in PROFILE_QUANTITIES)
 #: Units of position and of the derivative orders 1..3 in messages and reports (task files use degrees).
 DEGREE_UNITS = tuple(q.degree_unit for q in PROFILE_QUANTITIES)
 
+#: The largest joint position [deg] (277 turns) a task file's angle or a timing problem's via-point may
+#: be: caps like this catch unit mistakes and keep the arithmetic finite (via-points of 1e308 rad overflowed
+#: the spline's arithmetic).
+LARGEST_POSITION_DEG = 1e5
 #: The range [deg/s^d] any velocity, acceleration or jerk limit may take, in a task file or a robot's
 #: limits file (1e-320 underflowed to 0 and 1e308 overflowed in the arithmetic).
 LIMIT_DEG_RANGE = (1e-12, 1e15)
@@ -100,8 +105,13 @@ def bounds_exceeded(durations, bounds: tuple[float, float]) -> np.ndarray:
 
 
 def in_degrees(value: float, order: int) -> str:
-    """A value [rad-based SI] of derivative ``order`` (0 = position) as the user reads it: "12.5 deg/s"."""
-    return f"{float(np.rad2deg(value)):.6g} {DEGREE_UNITS[order]}"
+    """A value [rad-based SI] of derivative ``order`` (0 = position) as the user reads it: "12.5 deg/s"; in
+    its SI unit where degrees would overflow ("-1e+308 rad/s", not "-inf deg/s")."""
+    with np.errstate(over="ignore", under="ignore"):
+        degrees = float(np.rad2deg(value))
+    if math.isfinite(value) and not math.isfinite(degrees):
+        return f"{float(value):.6g} {UNITS[order]}"
+    return f"{degrees:.6g} {DEGREE_UNITS[order]}"
 
 
 def numbers_apart(value: float, bound: float) -> tuple[str, str]:
@@ -173,24 +183,32 @@ class JointLimits(ReadOnlyArrays):
                    _limit_vector("upper position", upper, joints, np.inf),
                    _limit_vector("velocity", velocity, joints, np.inf),
                    _limit_vector("acceleration", acceleration, joints, np.inf),
-                   _limit_vector("jerk", jerk, joints, np.inf), tuple(names or ()))
+                   _limit_vector("jerk", jerk, joints, np.inf), () if names is None else names)
 
     def __post_init__(self):
         joints = len(np.atleast_1d(self.lower))
-        names = tuple(str(name) for name in self.names) or default_joint_names(joints)
+        given = tuple(self.names) if isinstance(self.names, Iterable) and not isinstance(self.names, (str, bytes)) \
+            else None
+        if given is None or not all(isinstance(name, str) and name for name in given):
+            raise InputError(f"joint names must be a list of non-empty texts, got {shown(self.names)}")
+        names = tuple(str(name) for name in given) or default_joint_names(joints)
         if len(names) != joints:
             raise InputError(f"{len(names)} joint names for {joints} joints")
+        if len(set(names)) != joints:
+            raise InputError(f"joint names must be distinct (errors name joints by them), got {shown(list(names))}")
         object.__setattr__(self, "names", names)
         for name in ("lower", "upper", *QUANTITIES):
             object.__setattr__(self, name, _limit_vector(name, getattr(self, name), joints, np.inf))
         freeze_arrays(self)
+        low, high = np.deg2rad(LIMIT_DEG_RANGE)
         for order, name in enumerate(QUANTITIES, start=1):
             values = getattr(self, name)
-            bad = np.flatnonzero(values <= 0)
+            bad = np.flatnonzero((values < low) | ((values > high) & np.isfinite(values)))
             if bad.size:
                 j = int(bad[0])
-                raise InputError(f"{name} limit of joint {names[j]} is {in_degrees(values[j], order)}; "
-                                 f"limits must be > 0")
+                raise InputError(f"{name} limit of joint {names[j]} is {in_degrees(values[j], order)}; limits must "
+                                 f"be from {LIMIT_DEG_RANGE[0]:g} to {LIMIT_DEG_RANGE[1]:g} {DEGREE_UNITS[order]}, "
+                                 f"or absent (inf)")
         bad = np.flatnonzero(self.lower >= self.upper)
         if bad.size:
             j = int(bad[0])

@@ -424,7 +424,7 @@ def output_folder(path, *, force: bool = False, files: Iterable[str] = ()) -> It
     created = _missing_parents(folder)
     lock = _Lock(folder)
     try:
-        folder.parent.mkdir(parents=True, exist_ok=True)
+        _make_folders(created)
         lock.acquire()
     except OSError as exc:  # /proc, a name too long, a full disk: the path cannot take outputs
         _remove_empty(created)
@@ -482,6 +482,18 @@ def output_folder(path, *, force: bool = False, files: Iterable[str] = ()) -> It
 def _missing_parents(path: Path) -> list[Path]:
     """The ancestors of ``path`` that do not exist yet, deepest first (what a run will create)."""
     return [ancestor for ancestor in path.parents if not ancestor.exists()]
+
+
+def _make_folders(missing: list[Path]) -> None:
+    """Create the folders ``missing`` (``_missing_parents``: deepest first), shallowest first, one by one:
+    ``Path.mkdir(parents=True)`` recurses once per level, and a path some 1500 folders deep (legal on Linux)
+    ran out of Python's recursion limit (a ``RecursionError`` reported as an internal error)."""
+    for folder in reversed(missing):
+        try:
+            folder.mkdir()
+        except FileExistsError:  # made meanwhile by another process; a file there fails at the next level
+            if not folder.is_dir():
+                raise
 
 
 def _remove_empty(folders: list[Path]) -> None:
@@ -565,7 +577,7 @@ def atomic_file(path, *, force: bool = False) -> Iterator[Path]:
     created = _missing_parents(target)
     published = False
     try:
-        target.parent.mkdir(parents=True, exist_ok=True)
+        _make_folders(created)
         for stale in target.parent.glob(f".{glob.escape(target.name)}.*.tmp"):  # a run killed outright left it
             if _STALE_TEMPORARY.fullmatch(stale.name[len(target.name) + 2:]) and abandoned(stale):
                 stale.unlink(missing_ok=True)

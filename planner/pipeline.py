@@ -71,6 +71,7 @@ from .timing import OptimizationResult, TimingProblem, optimize
 from .timing.nlp import robot_refine
 from .timing.result import time_limit
 from .timing.robot_rows import RobotConstraints
+from .validate import finite_array
 
 #: Significant digits of the numbers in summary.json (coefficients.json keeps every digit).
 SUMMARY_DIGITS = 12
@@ -134,7 +135,7 @@ class PlanResult:
                 measured on another trajectory (``measured_on``).
         """
         self._check_types()
-        via = np.asarray(self.via_points, dtype=float)
+        via = finite_array("a plan result's via-points", self.via_points, 2)
         joints = self.trajectory.joint_count
         if via.shape != (len(self.trajectory.via_knots), joints) or self.limits.joint_count != joints:
             raise InputError(f"a plan result's via-points {via.shape} and limits ({self.limits.joint_count} joints) "

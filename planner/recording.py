@@ -53,6 +53,7 @@ from typing import TypeGuard
 
 import numpy as np
 
+from .concurrency import WorkerLost, call_in_child
 from .errors import InputError, RecordingError, ViewerError, shown
 from .kinematics import Break, Violation, continuity_breaks, kinematic_figures, via_point_misses
 from .limits import DEGREE_UNITS, PROFILE_QUANTITIES, QUANTITIES, JointLimits, seconds_text
@@ -665,6 +666,19 @@ def read_recording(path) -> RecordedPlan:
             raise RecordingError(f"{path}: {what}")
     except OSError as exc:  # a name too long, a folder on the way that cannot be read
         raise RecordingError(f"{shown(str(path))}: {exc.strerror or exc}") from None
+    if "rerun_bindings" in sys.modules:  # Rerun's native threads run here: a child forked now could hang
+        return _read(path)
+    try:  # bytes that crash Rerun's decoder (a Rust panic aborts the process) end a child, not this process
+        return call_in_child(_read, path)
+    except WorkerLost as lost:
+        panic = [line.strip() for line in lost.said.splitlines() if line.strip()]
+        cause = next((panic[i + 1] for i, line in enumerate(panic[:-1]) if "panicked at" in line), "")
+        raise RecordingError(f"{path}: not a readable Rerun recording (its decoder crashed on it"
+                             f"{': ' + cause if cause else ''})") from None
+
+
+def _read(path: Path) -> RecordedPlan:
+    """``read_recording`` of a path known to be a file."""
     application, chunks = _trajectory_chunks(path)
     definition_text = _single_text(path, chunks.get(_DEFINITION, []), "planner_definition")
     if definition_text is None and application != APPLICATION_ID:

@@ -50,7 +50,7 @@ import numpy as np
 
 from .errors import SHOWN_VALUE_CHARS, InputError, SettingError, TaskError, path_encoding_advice, shown
 from .ik import BRANCH_RULES
-from .limits import LIMIT_DEG_RANGE, LIMITED, PROFILE_QUANTITIES, TORQUE_RANGE_NM
+from .limits import LARGEST_POSITION_DEG, LIMIT_DEG_RANGE, LIMITED, PROFILE_QUANTITIES, TORQUE_RANGE_NM
 from .read_only import ReadOnlyArrays, freeze_arrays
 from .splines import FAMILIES
 from .timing import OPTIMIZERS, SETTING_RANGES, checked_settings, setting_names
@@ -79,8 +79,8 @@ TIME_LIMIT_S = 120.0
 
 
 #: Every number in a list of angles (joint waypoints, ranges, hints, start, roll-pitch-yaw) [deg]:
-#: 277 turns either way. Caps like these catch unit mistakes and keep the arithmetic finite.
-ANGLE_DEG = Range(-1e5, 1e5)
+#: 277 turns either way (``LARGEST_POSITION_DEG``).
+ANGLE_DEG = Range(-LARGEST_POSITION_DEG, LARGEST_POSITION_DEG)
 #: Every velocity, acceleration and jerk limit [deg/s^d].
 LIMIT_DEG = Range(*LIMIT_DEG_RANGE)
 #: Every tool position coordinate [m].

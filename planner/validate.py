@@ -126,9 +126,23 @@ def float_array(name: str, value) -> np.ndarray:
         if raw.dtype.kind in "USVbMmc" or (raw.dtype.kind == "O" and any(
                 item is None or isinstance(item, (str, bytes, bool, np.bool_)) for item in raw.flat)):
             raise TypeError(f"got {shown(value)}")
+        if not isinstance(value, np.ndarray) and _holds_boolean(value):  # NumPy made [True, 2.0] floats
+            raise TypeError(f"got {shown(value)}, which holds a boolean")
         return raw.astype(float)
     except (TypeError, ValueError, OverflowError) as exc:  # OverflowError: an integer beyond any float
         raise InputError(f"{name} must be numeric ({exc})") from None
+
+
+def _holds_boolean(value) -> bool:
+    """Whether ``value``, lists and tuples nested in any depth, holds a boolean (or a boolean array)."""
+    stack = [value]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, (bool, np.bool_)) or (isinstance(item, np.ndarray) and item.dtype.kind == "b"):
+            return True
+        if isinstance(item, (list, tuple)):
+            stack.extend(item)
+    return False
 
 
 def finite_array(name: str, value, ndim: int) -> np.ndarray:

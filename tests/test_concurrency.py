@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from planner import InfeasibleError, UnknownRobotError
-from planner.concurrency import WarmWorkers, core_count, map_forked, map_forked_until
+from planner.concurrency import WarmWorkers, WorkerLost, call_in_child, core_count, map_forked, map_forked_until
 
 
 def square_with_pid(x):
@@ -46,6 +46,25 @@ def test_with_other_threads_running_everything_runs_in_the_calling_thread():
         stop.set()
         other.join()
     assert {pid for _, pid in map_forked(square_with_pid, [1, 2], workers=2)} != {os.getpid()}  # alone again
+
+
+def abort_after_saying(text):
+    os.write(2, text.encode())
+    os.abort()
+
+
+def test_a_call_in_a_child_returns_raises_or_names_the_crash_that_ended_it(capfd):
+    """A native library's abort (a Rust panic) kills its process: in a child, the caller gets ``WorkerLost``
+    with what the child said on stderr, none of which reaches the caller's; results and the planner's
+    errors come back whole."""
+    assert call_in_child(square_with_pid, 7)[0] == 49 and call_in_child(square_with_pid, 7)[1] != os.getpid()
+    with pytest.raises(InfeasibleError, match="item 3 is odd") as raised:
+        call_in_child(fail_on_odd, 3)
+    assert raised.value.joint == 3
+    with pytest.raises(WorkerLost, match="exit code -6") as lost:
+        call_in_child(abort_after_saying, "thread panicked at here:\nthe cause\n")
+    assert lost.value.said.startswith("thread panicked at here:\nthe cause")
+    assert "panicked" not in capfd.readouterr().err
 
 
 def fail_on_odd(x):

@@ -722,3 +722,24 @@ def test_a_file_is_abandoned_only_once_unlocked_and_a_minute_unchanged(tmp_path)
     with atomic_file(tmp_path / "x.png") as temporary:  # a new run of the same file removes it
         temporary.write_bytes(b"png")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["x.png"]
+
+
+def test_outputs_go_into_folders_1500_deep(tmp_path):
+    """``Path.mkdir(parents=True)`` recurses once per level: a path 1500 folders deep (legal on Linux) was a
+    ``RecursionError``, said by the command line as an internal error. The folders are made, and the files
+    written there."""
+    deep = tmp_path.joinpath(*["d"] * 1500)
+    try:
+        write_outputs(deep / "out", {"a.txt": "x"})
+        assert contents(deep / "out") == {"a.txt": "x", MARKER: (deep / "out" / MARKER).read_text()}
+        with atomic_file(deep / "more" / "b.csv") as temporary:
+            temporary.write_text("y")
+        assert (deep / "more" / "b.csv").read_text() == "y"
+    finally:  # removed level by level (shutil.rmtree recurses as deep as the tree)
+        for folder in (deep / "out", deep / "more"):
+            for entry in folder.iterdir() if folder.is_dir() else ():
+                entry.unlink()
+            folder.rmdir() if folder.is_dir() else None
+        while deep != tmp_path and deep.is_dir():
+            deep.rmdir()
+            deep = deep.parent

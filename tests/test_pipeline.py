@@ -789,6 +789,9 @@ def test_a_plan_result_describes_the_trajectory_it_holds():
         dataclasses.replace(result, via_points=result.via_points[:2])
     with pytest.raises(InputError, match="trajectory must be a PiecewisePolynomial, not NoneType"):
         dataclasses.replace(result, trajectory=None)
+    for wrong in ("x", None, [[True, 0], [1, 1], [2, 2]]):  # numpy's own ValueError or a boolean read as 1
+        with pytest.raises(InputError, match="a plan result's via-points must be numeric"):
+            dataclasses.replace(result, via_points=wrong)
     with pytest.raises(dataclasses.FrozenInstanceError):
         result.trajectory = faster.trajectory
 

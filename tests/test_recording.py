@@ -162,6 +162,28 @@ def test_bytes_after_a_recording_are_one_line_without_rerun_logging(planned, tmp
     assert run.returncode == 2 and run.stderr.count("\n") == 1 and "bytes after its end" in run.stderr, run.stderr
 
 
+def test_a_byte_that_crashes_rerun_s_decoder_is_one_line_and_exit_2(tmp_path):
+    """One changed byte of a plan's recording made Rerun's Arrow decoder panic (rerun-sdk 0.2x: byte 47729 of
+    the two-joint task's): the process aborted with a 60-line Rust backtrace (exit 134), and from Python no
+    ``except`` could catch it. A fresh process, as a user runs it, refuses it in one line with exit 2; the
+    unchanged file passes."""
+    import subprocess
+    import sys
+
+    from planner import make_task, plan
+    task = make_task(name="j2", joints_deg=[[0, 0], [40, -20], [90, 10]], trajectory={"family": "hybrid"},
+                     limits={"velocity_deg_s": [60, 60], "acceleration_deg_s2": [120, 120], "jerk_deg_s3": [600, 600]})
+    plan(task).save(tmp_path / "out")
+    data = bytearray((tmp_path / "out" / "trajectory.rrd").read_bytes())
+    data[47729] = 0x61
+    damaged = tmp_path / "one.rrd"
+    damaged.write_bytes(bytes(data))
+    for path, code in ((damaged, 2), (tmp_path / "out" / "trajectory.rrd", 0)):
+        run = subprocess.run([sys.executable, "-m", "planner.cli", "replay", str(path), "--check"],
+                             capture_output=True, text=True, timeout=120)
+        assert run.returncode == code and run.stderr.count("\n") == (code != 0), run.stderr[:2000]
+
+
 RATE_HZ = 50.0
 
 

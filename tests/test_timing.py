@@ -748,9 +748,10 @@ Q_BASE = {"version": 1, "name": "q_base",
 def test_where_no_shape_converges_the_nlp_tries_equal_durations_and_says_so(monkeypatch):
     """IPOPT stopped both shapes' starts at its iteration cap on these via-points (a sweep's case), and
     converged 2 % lower on the same via-points shifted by 360 deg. Its second round now starts warm from the
-    first's solution and multipliers, and both shapes converge to that optimum; started cold (as before),
-    a third start from equal durations reaches it, and the stop reason names the starts that did not
-    converge."""
+    first's solution and multipliers, and both shapes converge to that optimum (so they do started cold
+    without the duration floor as a bound, ``TimingNLP.solve``); started cold with the floor (as before
+    both), a third start from equal durations reaches it, and the stop reason names the starts that did
+    not converge."""
     from planner import plan
     from planner.timing import nlp
 
@@ -759,6 +760,8 @@ def test_where_no_shape_converges_the_nlp_tries_equal_durations_and_says_so(monk
     assert other.optimization.stop_reason == warm.optimization.stop_reason == "NLP from 2 shapes"
     assert warm.trajectory.total_time == pytest.approx(other.trajectory.total_time, rel=1e-9)
     monkeypatch.setattr(nlp, "WARM_IPOPT_OPTIONS", {})  # later rounds start from the last solution only
+    assert plan(Q_BASE).optimization.stop_reason == "NLP from 2 shapes"
+    monkeypatch.setattr(nlp.TimingNLP, "solve", lambda self, start, report=None: self._solve(start, report, True))
     base = plan(Q_BASE)
     assert base.trajectory.total_time == pytest.approx(other.trajectory.total_time, rel=1e-9)
     assert [s.label for s in base.optimization.starts] == ["cruise", "stop-at-turns", "uniform"]
@@ -800,3 +803,17 @@ def test_free_states_are_not_repaired_below_h_min():
         assert kinematic_figures(trajectory).violations(limits) == []
         slack = problem.evaluate_states(result.durations[None], result.knot_states[None])
         assert np.array_equal(slack.durations[0], [h, h]) and slack.feasible[0]
+
+
+@pytest.mark.parametrize("via", [[[0.0, 0.0], [1e308, 0.0]], [[-1e308, 0.0], [1e308, 0.0]],
+                                 [[0.0, 0.0], [0.0, 1746.0]]])
+def test_via_points_beyond_the_largest_position_are_refused_naming_them(via):
+    """Via-points of 1e308 rad were taken, then overflowed the spline (warnings, and an error naming the
+    optimizer's "candidates"); a task file caps angles at 1e5 deg, and so does a timing problem."""
+    limits = JointLimits.create(2, velocity=[1.0, 1.0], acceleration=[2.0, 2.0], jerk=[10.0, 10.0])
+    k, j = next((k, j) for k in range(2) for j in range(2) if abs(via[k][j]) > 1745.33)
+    with np.errstate(all="raise"):
+        with pytest.raises(InputError, match=f"via-point {k}, joint {j}: .* rad is beyond the largest position the "
+                                             f"planner takes, \\+-1745.33 rad \\(100000 deg\\)"):
+            TimingProblem(np.array(via), "hybrid", limits)
+    assert TimingProblem(np.array([[0.0, 0.0], [0.0, 1745.0]]), "hybrid", limits).joint_count == 2

@@ -43,6 +43,7 @@ import numpy as np
 from ..errors import InfeasibleError, InputError
 from ..kinematics import Violation, batch_scale_factors, jerk_energy, position_range
 from ..limits import (
+    LARGEST_POSITION_DEG,
     LIMITED,
     JointLimits,
     bounds_exceeded,
@@ -124,6 +125,12 @@ class TimingProblem:
         if not isinstance(limits, JointLimits):
             raise InputError(f"limits must be a JointLimits (JointLimits.create), got {type(limits).__name__}")
         given = finite_array("via_points", via_points, 2)
+        beyond = np.argwhere(~(np.abs(given) <= np.deg2rad(LARGEST_POSITION_DEG)))
+        if beyond.size:
+            k, j = (int(i) for i in beyond[0])
+            largest = np.deg2rad(LARGEST_POSITION_DEG)
+            raise InputError(f"via-point {k}, joint {j}: {given[k, j]:g} rad is beyond the largest position the "
+                             f"planner takes, +-{largest:.6g} rad ({LARGEST_POSITION_DEG:g} deg)")
         given, _ = self.family.check(given, np.ones(self.family.segment_count(len(given))))
         self.given_via_points = given
         self.via_points, self.via_index = _merge_repeats(given)
