@@ -642,6 +642,11 @@ class RecordedPlan(ReadOnlyArrays):
 def read_recording(path) -> RecordedPlan:
     """Read a planner recording back, without a viewer, and check that it is whole.
 
+    Decoded in a forked child (``concurrency.call_in_child``) where this process has not loaded Rerun yet:
+    bytes that make Rerun's decoder abort (a Rust panic, which no ``except`` catches) end the child, and are
+    said as an unreadable recording. Where Rerun is loaded, decoded here (a child forked beside its native
+    threads could hang).
+
     Raises:
         RecordingError: a missing file, one Rerun cannot read, one not written by the
             planner, a definition or samples that are malformed (the field is named), or
