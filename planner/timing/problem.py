@@ -125,10 +125,10 @@ class TimingProblem:
         if not isinstance(limits, JointLimits):
             raise InputError(f"limits must be a JointLimits (JointLimits.create), got {type(limits).__name__}")
         given = finite_array("via_points", via_points, 2)
-        beyond = np.argwhere(~(np.abs(given) <= np.deg2rad(LARGEST_POSITION_DEG)))
+        largest = np.deg2rad(LARGEST_POSITION_DEG)
+        beyond = np.argwhere(~(np.abs(given) <= largest))
         if beyond.size:
             k, j = (int(i) for i in beyond[0])
-            largest = np.deg2rad(LARGEST_POSITION_DEG)
             raise InputError(f"via-point {k}, joint {j}: {given[k, j]:g} rad is beyond the largest position the "
                              f"planner takes, +-{largest:.6g} rad ({LARGEST_POSITION_DEG:g} deg)")
         given, _ = self.family.check(given, np.ones(self.family.segment_count(len(given))))
