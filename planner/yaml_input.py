@@ -11,15 +11,19 @@ Used for task files and for a robot's limits file. Beyond ``yaml.safe_load`` it:
   ``MAX_VALUES`` values (an alias counts as everything it stands for: "billion laughs");
 * resolves plain scalars by YAML 1.2's core schema (``_use_core_schema``): ``1e-4`` is a number
   (YAML 1.1, PyYAML's, reads a float without a dot as text, a trap for anyone writing small
-  limits), ``010`` is ten, ``1:40`` is text, ``yes`` is text.
+  limits), ``010`` is ten, ``1:40`` is text, ``yes`` is text;
+* refuses a number that no float holds (``1e-999``, ``1e999``), by its text and line, rather than
+  reading it as 0.0 or infinity.
 """
 
 from __future__ import annotations
 
 import codecs
+import math
 import os
 import re
 import stat
+import sys
 from pathlib import Path
 
 import yaml
@@ -247,6 +251,7 @@ def _use_core_schema(loader: type[yaml.SafeLoader]) -> None:
         starts = list("tTfF") if name == "bool" else list("~nN") + [""] if name == "null" else list("-+.0123456789")
         loader.add_implicit_resolver(f"tag:yaml.org,2002:{name}", re.compile(f"^(?:{pattern})$"), starts)
     loader.add_constructor("tag:yaml.org,2002:int", _core_int)
+    loader.add_constructor("tag:yaml.org,2002:float", _core_float)
 
 
 def _core_int(loader: yaml.SafeLoader, node: yaml.ScalarNode) -> int:
@@ -254,6 +259,26 @@ def _core_int(loader: yaml.SafeLoader, node: yaml.ScalarNode) -> int:
     text = loader.construct_scalar(node).replace("_", "")
     base = {"0o": 8, "0x": 16}.get(text[:2], 10)
     return int(text[2:] if base != 10 else text, base)
+
+
+def _core_float(loader: yaml.SafeLoader, node: yaml.ScalarNode) -> float:
+    """A core-schema float; a number written with digits that no float holds is refused (``1e-999``
+    would read as 0.0 and ``1e999`` as infinity, and a message would then quote a value the file does
+    not hold).
+
+    Raises:
+        yaml.constructor.ConstructorError: naming the text, its line and the float's range.
+    """
+    value = yaml.SafeLoader.construct_yaml_float(loader, node)
+    text = node.value.lower()
+    if math.isinf(value) and "inf" not in text:
+        problem = f"overflows to infinity (the largest float is {sys.float_info.max:.3g})"
+    elif value == 0.0 and re.search("[1-9]", text.split("e")[0]):
+        problem = f"underflows to 0.0 (the smallest float is {math.ulp(0.0):.3g})"
+    else:
+        return value
+    raise yaml.constructor.ConstructorError(None, None, f"cannot read {shown(node.value, 40)} as a number: it "
+                                                        f"{problem}", node.start_mark)
 
 
 _use_core_schema(_StrictLoader)

@@ -500,6 +500,21 @@ def test_plain_scalars_read_as_yaml_1_2_core_schema(tmp_path, text, expected):
     assert data["value"] == expected and type(data["value"]) is type(expected) and data["quoted"] == text
 
 
+@pytest.mark.parametrize("text, expected", [("1e-999", "underflows to 0.0"), ("-1_0e-400", "underflows to 0.0"),
+                                            ("1e999", "overflows to infinity"), ("-2.5E+400", "overflows to infinity")])
+def test_a_number_no_float_holds_is_refused_with_its_text(tmp_path, text, expected):
+    """``1e-999`` read as 0.0 made messages quote a value the file does not hold ("got 0.0", sweep 25);
+    it is refused where it is read, by its text and line. Zero, subnormal numbers and ``.inf`` are read."""
+    from planner.yaml_input import read_yaml
+    path = tmp_path / "x.yaml"
+    path.write_text(f"fine: [0.0e-999, 1e-310, -.inf]\nvalue: {text}\n")
+    with pytest.raises(TaskError, match=rf"line 2, column 8: cannot read '{re.escape(text)}' as a number: it "
+                                        rf"{expected} \(the (smallest|largest) float is "):
+        read_yaml(path)
+    path.write_text("fine: [0.0e-999, 1e-310, -.inf]\n")
+    assert read_yaml(path) == {"fine": [0.0, 1e-310, -math.inf]}
+
+
 @pytest.mark.parametrize("argument", [b"version: 1\n", None, object(), 42])
 def test_load_task_takes_a_path_only(argument):
     with pytest.raises(TaskError, match="a task file is given by its path"):
