@@ -190,7 +190,8 @@ class JointLimits(ReadOnlyArrays):
         given = tuple(self.names) if isinstance(self.names, Iterable) and not isinstance(self.names, (str, bytes)) \
             else None
         if given is None or not all(isinstance(name, str) and name for name in given):
-            raise InputError(f"joint names must be a list of non-empty texts, got {shown(self.names)}")
+            raise InputError(f"joint names must be a list of non-empty texts, got "
+                             f"{shown(self.names if given is None else list(given))}")
         names = tuple(str(name) for name in given) or default_joint_names(joints)
         if len(names) != joints:
             raise InputError(f"{len(names)} joint names for {joints} joints")

@@ -5,8 +5,9 @@ The rules for an output folder ``DIR`` (``planner plan --out DIR``,
 before any work is done:
 
 * An empty path is refused: an unset shell variable must not mean "here".
-* ``DIR`` is an existing file, lies under one, or its nearest existing
-  ancestor is not a writable folder: refused.
+* ``DIR`` is an existing file, lies under one, is an existing folder that is not
+  writable, or is absent and its nearest existing ancestor is not a writable
+  folder: refused.
 * ``DIR`` may be absent (it and its parents are created), empty, or a folder
   the planner wrote: it holds the marker ``.planner-output``, which lists the
   files published there with the size and modification time each had then,
@@ -24,9 +25,11 @@ before any work is done:
   staging folder is swapped with ``DIR`` in one ``renameat2(RENAME_EXCHANGE)``
   call (Linux); where the system cannot exchange, ``DIR`` is renamed aside and
   the staging folder renamed in its place, so ``DIR`` never holds a mix of old
-  and new files. The current working folder and mount points cannot be
-  renamed: outputs go into them one file at a time.
-* While a plan runs, ``DIR`` is locked (``flock`` on ``.DIR.lock`` beside it):
+  and new files. The current working folder, mount points and a folder whose
+  parent is not writable (a container's bind mount) cannot be renamed: outputs
+  go into them one file at a time.
+* While a plan runs, ``DIR`` is locked (``flock`` on ``.DIR.lock`` beside it, or
+  on ``INSIDE_LOCK`` in it where its parent is not writable):
   a second writer fails at once instead of interleaving. The lock file is the
   planner's only while empty: one holding data is refused, not taken over. Staging
   folders of a killed run are removed by the next run that takes the lock: only
@@ -62,6 +65,10 @@ from .interrupts import publishing
 MARKER = ".planner-output"
 #: In every staging folder from its creation until publishing: a later run removes only folders holding it.
 STAGING_MARKER = ".planner-staging"
+#: The lock file of an output folder whose parent is not writable, in the folder itself (``_Lock``).
+INSIDE_LOCK = ".planner-output.lock"
+#: The largest marker read [bytes]: it lists a folder's published files, a few hundred bytes.
+MAX_MARKER_BYTES = 2**20
 #: How a refusal of a folder names the way past it: the command's flag, and save's parameter.
 FORCE = "--force (force=True from Python)"
 #: A staging folder is named ``.DIR.staging-`` and this many random hex digits.
@@ -145,8 +152,9 @@ def check_writable_location(path: Path, what: str) -> None:
 
 
 def _listing(folder: Path) -> set[str]:
+    """The names in ``folder`` but a planner's lock there (``INSIDE_LOCK``)."""
     try:
-        return {entry.name for entry in folder.iterdir()}
+        return {entry.name for entry in folder.iterdir()} - {INSIDE_LOCK}
     except OSError as exc:
         raise OutputError(f"output folder {folder}: cannot list it ({exc.strerror})") from None
 
@@ -162,11 +170,23 @@ def _signature(path: Path) -> list[int] | None:
 
 
 def _marker(folder: Path) -> dict:
-    """``folder``'s marker (a planner's holds an object); empty where there is none or it cannot be read."""
+    """``folder``'s marker (a planner's holds an object); empty where there is none or it cannot be read, and
+    where it is not a regular file of at most ``MAX_MARKER_BYTES`` (a pipe there hung the run, a link to
+    /dev/zero read until memory ran out): opened without following a symbolic link or waiting on a pipe."""
+    flags = os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0)
     try:
-        marker = json.loads((folder / MARKER).read_text())
+        descriptor = os.open(folder / MARKER, flags)
     except (OSError, ValueError):
         return {}
+    try:
+        if not stat.S_ISREG(os.fstat(descriptor).st_mode):
+            return {}
+        raw = os.read(descriptor, MAX_MARKER_BYTES + 1)
+        marker = json.loads(raw) if len(raw) <= MAX_MARKER_BYTES else None
+    except (OSError, ValueError):
+        return {}
+    finally:
+        os.close(descriptor)
     return marker if isinstance(marker, dict) else {}
 
 
@@ -226,14 +246,14 @@ def _check_folder(folder: Path, force: bool, files: set[str]) -> tuple[Path, boo
     """``check_output_folder`` for an absolute ``folder``."""
     if folder == Path(folder.anchor):
         raise OutputError(f"output folder {folder} is the filesystem's root; give a folder of its own")
-    check_writable_location(folder, "output folder")
     if not folder.exists():
+        check_writable_location(folder, "output folder")
         return folder, False
     if not folder.is_dir():
         raise OutputError(f"output folder {folder} is an existing file; give a folder")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise OutputError(f"output folder {folder} is not writable")
-    present = _listing(folder)
+    present = _listing(folder) - {entry.name for entry in _stale_staging(folder, folder.name)}  # (a run's, in place)
     planner = _planner_files(folder)  # None: no marker, or a marker that is not the planner's (a folder, say)
     owned = _own_files(planner, files)
     foreign = present - (owned or set()) - ({MARKER} if owned is not None else set())
@@ -254,8 +274,14 @@ def _check_folder(folder: Path, force: bool, files: set[str]) -> tuple[Path, boo
                           f"give an empty or new folder, or add {FORCE} to write into it (files of the same "
                           f"names are replaced, others kept)")
     cwd = Path.cwd().resolve()
-    in_place = bool(foreign) or folder == cwd or folder in cwd.parents or os.path.ismount(folder)
+    in_place = (bool(foreign) or folder == cwd or folder in cwd.parents or os.path.ismount(folder)
+                or not _writable_parent(folder))
     return folder, in_place
+
+
+def _writable_parent(folder: Path) -> bool:
+    """Whether this process may make and rename entries in ``folder``'s parent."""
+    return os.access(folder.parent, os.W_OK | os.X_OK)
 
 
 def _longer_names_hint(exc: OSError) -> str:
@@ -269,10 +295,13 @@ def _longer_names_hint(exc: OSError) -> str:
 
 
 class _Lock:
-    """An exclusive ``flock`` on ``.NAME.lock`` beside a folder, removed when released."""
+    """An exclusive ``flock`` on ``.NAME.lock`` beside a folder (``INSIDE_LOCK`` in it, where it exists and its
+    parent is not writable), removed when released."""
 
     def __init__(self, folder: Path):
-        self.path = folder.parent / f".{folder.name}.lock"
+        inside = folder.is_dir() and not _writable_parent(folder)
+        self.folder = folder
+        self.path = folder / INSIDE_LOCK if inside else folder.parent / f".{folder.name}.lock"
         self.handle: int | None = None
 
     def acquire(self) -> None:
@@ -282,8 +311,8 @@ class _Lock:
                 fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
                 os.close(handle)
-                raise OutputError(f"output folder {self.path.parent / self.path.name[1:-5]} is being written by "
-                                  f"another planner process; wait for it or choose another folder") from None
+                raise OutputError(f"output folder {self.folder} is being written by another planner process; wait "
+                                  f"for it or choose another folder") from None
             try:  # the previous holder may have removed the file between our open and our lock
                 same = os.stat(self.path).st_ino == os.fstat(handle).st_ino
             except FileNotFoundError:
@@ -368,9 +397,10 @@ def _publish_in_place(staging: Path, folder: Path, stale: set[str]) -> None:
 
 
 def _stale_staging(place: Path, name: str) -> list[Path]:
-    """The staging folders of output folder ``name`` that a killed run left in ``place``: named
+    """The staging folders of output folder ``name`` in ``place`` (a running run's, or one a killed run left): named
     ``.NAME.staging-`` and ``_STAGING_DIGITS`` hex digits (compared literally: ``name`` may hold glob
-    characters), real folders, holding ``STAGING_MARKER``."""
+    characters), real folders, holding ``STAGING_MARKER`` or nothing (a run whose folder was made read-only
+    removed the marker and the outputs, not the folder)."""
     prefix = f".{name}.staging-"
     try:
         entries = list(place.iterdir())
@@ -379,7 +409,16 @@ def _stale_staging(place: Path, name: str) -> list[Path]:
     return [entry for entry in entries
             if entry.name.startswith(prefix) and len(entry.name) == len(prefix) + _STAGING_DIGITS
             and all(c in "0123456789abcdef" for c in entry.name[len(prefix):])
-            and entry.is_dir() and not entry.is_symlink() and (entry / STAGING_MARKER).is_file()]
+            and entry.is_dir() and not entry.is_symlink()
+            and ((entry / STAGING_MARKER).is_file() or _empty(entry))]
+
+
+def _empty(folder: Path) -> bool:
+    """Whether ``folder`` can be listed and holds nothing."""
+    try:
+        return not any(folder.iterdir())
+    except OSError:
+        return False
 
 
 def _write_marker(staging: Path, kept: dict[str, list[int]] | None = None) -> set[str]:

@@ -36,6 +36,7 @@ from .errors import (
     PlannerError,
     SettingError,
     TaskError,
+    shown,
 )
 from .export import coefficients_document, json_ready, write_json, write_trajectory_csv
 from .ik import (
@@ -167,6 +168,10 @@ class PlanResult:
                 article = "an" if kind.__name__[0] in "AEIOU" else "a"
                 raise InputError(f"a plan result's {name} must be {article} {kind.__name__}"
                                  f"{' or None' if name in optional else ''}, not {type(value).__name__}")
+        for name, may_be_none in (("timings_s", False), ("branch_times", True)):
+            # each result its own copy: ``write`` adds the outputs' time to it, and copies by
+            # ``dataclasses.replace`` shared the one dict
+            object.__setattr__(self, name, _seconds_by_name(name, getattr(self, name), may_be_none))
 
     def _check_task(self, via: np.ndarray) -> None:
         """The task is the one planned: its family's segments, its robot, its joint waypoints and its limits'
@@ -584,6 +589,28 @@ def check_slowed_bounds(durations: np.ndarray, bounds: tuple[float, float] | Non
     raise TaskError(_binding_limit(slowed), f"{_lengthening(slowed, total)}, and segment {k} {value} s long, above "
                                             f"the duration bound h_max = {bound} s (optimizer.bounds_s): raise "
                                             f"h_max or the limit")
+
+
+def _seconds_by_name(name: str, value, may_be_none: bool) -> dict[str, float | None]:
+    """A copy of ``value``, a mapping of names to durations [s] (finite numbers >= 0, or None where
+    ``may_be_none``).
+
+    Raises:
+        InputError: naming the part ``name`` and the first entry that is none of these.
+    """
+    if not isinstance(value, Mapping):
+        raise InputError(f"a plan result's {name} must map names to seconds, not {type(value).__name__}")
+    copied: dict[str, float | None] = {}
+    for key, seconds in value.items():
+        if seconds is None and may_be_none:
+            copied[key] = None
+            continue
+        if (not isinstance(key, str) or isinstance(seconds, bool) or not isinstance(seconds, (int, float, np.number))
+                or not np.isfinite(seconds) or seconds < 0):
+            raise InputError(f"a plan result's {name} must map names to seconds (finite numbers >= 0"
+                             f"{', or None' if may_be_none else ''}), got {shown(key)}: {shown(seconds)}")
+        copied[key] = float(seconds)
+    return copied
 
 
 def trajectory_digest(trajectory: PiecewisePolynomial) -> str:

@@ -25,10 +25,13 @@ def freeze_arrays(instance) -> None:
 
 
 def read_only(array: np.ndarray) -> np.ndarray:
-    """A read-only copy of ``array`` (the caller's array stays writable)."""
+    """A read-only copy of ``array`` (the caller's array stays writable), as a view of a read-only array: NumPy
+    lets an array that owns its data be made writable again (``setflags(write=True)``), not such a view."""
     copy = np.array(array)
     copy.setflags(write=False)
-    return copy
+    view = copy.view()
+    view.setflags(write=False)
+    return view
 
 
 class ReadOnlyArrays:

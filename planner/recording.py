@@ -741,6 +741,9 @@ def _single_text(path: Path, chunks: list, component: str) -> str | None:
         if not chunk.is_static or len(columns) != 1:
             raise RecordingError(f"{path}: {entity} holds no static {component} text")
         values += batch.column(columns[0]).to_pylist()
+    if len(values) > 1:  # the same recording's file written twice over, or two joined (``cat a.rrd b.rrd``)
+        raise RecordingError(f"{path}: {entity} holds {len(values)} {component} texts where a recording holds one "
+                             f"(two recordings joined into one file?)")
     if len(values) != 1 or not isinstance(values[0], list) or len(values[0]) != 1 or not isinstance(values[0][0], str):
         raise RecordingError(f"{path}: {entity} must hold one {component} text, got {shown(values)}")
     return values[0][0]

@@ -203,6 +203,7 @@ class Robot:
 
     @classmethod
     def _build(cls, name, model, tool_frame, urdf_path, package_dirs, extra_limits) -> "Robot":
+        _check_joint_names(Path(urdf_path), name)
         frame_names = [f.name for f in model.frames]
         defaulted = tool_frame is None
         if tool_frame is None:
@@ -385,7 +386,8 @@ def _well_formed_root(path: Path):
     """The URDF's root element (ElementTree), which the checks at load read; a URDF that is not
     well-formed XML (text after ``</robot>``, say) is refused: Pinocchio's and Rerun's parsers accept
     some such files, but the planner's own checks (mimic joints, limits, masses, meshes:
-    ``urdf_elements``) read the file as XML, and would pass it unchecked.
+    ``urdf_elements``) read the file as XML, and would pass it unchecked. So is one declaring XML
+    entities, which those checks would read expanded and Pinocchio not.
 
     Raises:
         RobotFileError: naming the XML error and where it is.
@@ -393,7 +395,7 @@ def _well_formed_root(path: Path):
     import xml.etree.ElementTree as ElementTree
 
     try:
-        return ElementTree.parse(path).getroot()
+        root = ElementTree.parse(path).getroot()
     except ElementTree.ParseError as exc:
         xacro = "xacro:" in path.read_text(encoding="utf-8", errors="replace")
         remedy = "expand the xacro macros first (xacro FILE > ROBOT.urdf)" if xacro else "fix the file"
@@ -401,6 +403,15 @@ def _well_formed_root(path: Path):
                              f"joints, masses and meshes read it as XML: {remedy}", path=path) from None
     except OSError as exc:
         raise RobotFileError(f"cannot load URDF {path}: cannot read it ({exc.strerror or exc})", path=path) from None
+    try:
+        entities = b"<!ENTITY" in path.read_bytes()  # the XML parser above expands them, Pinocchio's takes "&name;"
+    except OSError:
+        entities = False  # (gone since: Pinocchio will say so)
+    if entities:
+        raise RobotFileError(f"cannot load URDF {path}: it declares XML entities (<!ENTITY ...>), which Pinocchio's "
+                             f"URDF parser does not expand (a joint would be named '&name;'): write their values "
+                             f"out", path=path)
+    return root
 
 
 def _check_tree(root, path: Path) -> None:
@@ -498,6 +509,22 @@ def _bad_mass(root) -> str:
                 return (f"link {shown(link.get('name'), 60)}: <mass value> must be a finite number >= 0, got "
                         f"{shown(mass.get('value'), 40)}")
     return ""
+
+
+def _check_joint_names(urdf_path: Path, name: str) -> None:
+    """Refuse a URDF ``<joint>`` without a name (Pinocchio reads it as the empty name; errors and outputs
+    name joints by their names), naming its links.
+
+    Raises:
+        RobotFileError: naming the joint's parent and child links.
+    """
+    for joint in urdf_elements(urdf_path, "joint"):
+        if not (joint.get("name") or "").strip():
+            links = [(joint.find(end).get("link") if joint.find(end) is not None else None) for end in ("parent",
+                                                                                                    "child")]
+            raise RobotFileError(f"robot {shown(name)} ({urdf_path}): the <joint> from link {shown(links[0])} to "
+                                 f"link {shown(links[1])} has an empty name; give every joint a name of its own",
+                                 path=urdf_path)
 
 
 def _mimic_joints(urdf_path: Path) -> list[str]:

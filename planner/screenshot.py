@@ -12,6 +12,7 @@ import fcntl
 import functools
 import importlib.util
 import os
+import re
 import shutil
 import signal
 import socket
@@ -37,6 +38,8 @@ STARTUP_S = 30.0
 SETTLE_S = 4.0
 #: Most time the recording may take to load [s].
 LOAD_S = 30.0
+#: Most time the viewer may take to exit after a request failed [s] (its reason is then in its output).
+STOPPING_S = 3.0
 
 
 def time_argument(text: str) -> float:
@@ -98,8 +101,18 @@ def _failure(code: int | None, log) -> ViewerError:
     if any(sign in lowered for sign in ("graphics adapter", "render context", "render state", "adapter was found",
                                         "no suitable adapter", "failed to create wgpu")):
         return ViewerError(f"no graphics adapter for Rerun's headless viewer: {ADAPTER_HINT}")
-    said = [line.strip() for line in text.splitlines() if "panicked" in line or "error" in line.lower()]
-    said = [line for line in said if "XDG_RUNTIME_DIR" not in line]
+    glyph = re.search(r'No glyph for "(.+?)" \((U\+[0-9A-F]+)\)', text)
+    if glyph:  # egui's font (Latin, Greek and Cyrillic) lacks a character of a name: the viewer panics
+        return ViewerError(f"Rerun's viewer cannot draw the character {glyph[1]} ({glyph[2]}) of a name in the "
+                           f"recording (the task's, the robot's or a joint's): its font has no glyph for it, and "
+                           f"it stopped; name them in Latin, Greek or Cyrillic letters")
+    lines = text.splitlines()
+    panic = next((k for k, line in enumerate(lines) if "panicked at" in line), None)
+    if panic is not None:  # (since Rust 1.73 the message follows on the next line)
+        end = panic + 2 if lines[panic].endswith(":") else panic + 1
+        panicked = " ".join(line.strip() for line in lines[panic:end])
+        return ViewerError(f"Rerun's headless viewer stopped with an error ({one_line(panicked, 300)})")
+    said = [line.strip() for line in lines if "error" in line.lower() and "XDG_RUNTIME_DIR" not in line]
     reason = f" ({one_line(said[-1], 300)})" if said else ""
     what = f"exited with code {code}" if code is not None else f"did not answer within {STARTUP_S:g} s"
     return ViewerError(f"Rerun's headless viewer {what}{reason}; it needs a graphics adapter: {ADAPTER_HINT}")
@@ -158,10 +171,13 @@ def render_screenshot(recording, out: Path, time_s: float) -> None:
                 client.set_time("time", duration=time_s, play_state="paused")
                 time.sleep(max(0.0, started + SETTLE_S - time.monotonic()))
                 png = client.take_screenshot()
-            except Exception:
-                if viewer.poll() is not None:
-                    raise _failure(viewer.returncode, log) from None
-                raise
+            except Exception as exc:  # the viewer may be stopping (a panic): its own reason, where it gives one
+                try:
+                    viewer.wait(timeout=STOPPING_S)
+                except subprocess.TimeoutExpired:
+                    raise ViewerError(f"Rerun's headless viewer failed ({type(exc).__name__}: "
+                                      f"{one_line(str(exc), 200)})") from None
+                raise _failure(viewer.returncode, log) from None
             if not png.startswith(b"\x89PNG"):
                 raise ViewerError("Rerun's headless viewer returned no PNG image")
             Path(out).write_bytes(png)

@@ -75,8 +75,11 @@ class PiecewisePolynomial(ReadOnlyArrays):
         with np.errstate(all="ignore"):  # the exact figures work on c_i h^i: they must not overflow, nor a
             # moving joint's all vanish (a jerk of 6 over 1e-110 s would then be taken for none)
             normalised = coefficients * durations[:, None, None] ** np.arange(coefficients.shape[2])
-        moving = np.any(np.abs(coefficients[..., 1:]) > NEGLIGIBLE, axis=2)
-        lost = ~np.isfinite(normalised).all(axis=2) | (moving & np.all(normalised[..., 1:] == 0, axis=2))
+        # a term that carries motion may not vanish alone either (c_3 h^3 of a jerk of 6 over 1e-160 s is 0,
+        # beside c_2 h^2 = 3e-320: the jerk would be taken for none, the acceleration off by 1e-5)
+        carried = np.abs(coefficients[..., 1:]) > NEGLIGIBLE
+        underflown = carried & (np.abs(normalised[..., 1:]) < np.finfo(float).tiny)
+        lost = ~np.isfinite(normalised).all(axis=2) | underflown.any(axis=2)
         if lost.any():
             k = int(np.argwhere(lost)[0][0])
             raise InputError(f"segment {k}'s duration {durations[k]:.3g} s with its coefficients is beyond what "

@@ -1,6 +1,7 @@
 """Output folders and files: checked before any work, locked, published in one step, never lose a file."""
 
 import os
+import re
 import shutil
 import signal
 import stat
@@ -396,6 +397,7 @@ def test_staging_left_by_a_killed_run_is_removed_by_the_next(tmp_path):
     stale.mkdir()
     (stale / STAGING_MARKER).touch()
     (stale / "half.csv").write_text("1,2")
+    (tmp_path / ".out.staging-0badc0de").mkdir()  # emptied, marker and all, by a run whose folder turned read-only
     write_outputs(tmp_path / "out", {"a.txt": "1"})
     assert leftovers(tmp_path) == []
 
@@ -427,6 +429,49 @@ def test_a_marker_that_is_a_folder_is_not_the_planners(tmp_path):
     with pytest.raises(OutputError, match="did not write"):
         write_outputs(out, {"a.txt": "1"})
     assert (out / MARKER / "notes.txt").read_text() == "keep me"
+
+
+@pytest.mark.parametrize("kind", ["pipe", "link to /dev/zero", "too large"])
+def test_a_marker_that_is_no_small_regular_file_is_not_read(tmp_path, kind):
+    """A pipe named as the marker hung the run, a link to /dev/zero read until memory ran out (sweep 26): the
+    marker is read without following a link or waiting, and only where it is a regular file of at most
+    ``MAX_MARKER_BYTES``; else the folder is not the planner's."""
+    out = tmp_path / "out"
+    out.mkdir()
+    if kind == "pipe":
+        os.mkfifo(out / MARKER)
+    elif kind == "too large":
+        (out / MARKER).write_text('{"files": {}}' + " " * outputs.MAX_MARKER_BYTES)
+    else:
+        (out / MARKER).symlink_to("/dev/zero")
+    started = time.monotonic()
+    with pytest.raises(OutputError, match="did not write"):
+        write_outputs(out, {"a.txt": "1"})
+    assert time.monotonic() - started < 10 and sorted(os.listdir(out)) == [MARKER]
+    write_outputs(out, {"a.txt": "1"}, force=True)
+    assert (out / "a.txt").read_text() == "1" and (out / MARKER).is_file() and not (out / MARKER).is_symlink()
+
+
+def test_a_folder_whose_parent_is_not_writable_is_written_in_place_and_locked_inside(tmp_path, monkeypatch):
+    """A container's bind mount (``docker run --user 1000 -v $PWD/out:/out``): the folder is writable, its
+    parent is not, and the lock and staging folder beside it were refused (sweep 26). Root may write anywhere,
+    so the parent's permission is what ``_writable_parent`` reports here."""
+    parent = tmp_path / "readonly"
+    out = parent / "out"
+    out.mkdir(parents=True)
+    monkeypatch.setattr(outputs, "_writable_parent", lambda folder: folder.parent != parent)
+    with output_folder(out) as staging:
+        assert staging.parent == out and (out / outputs.INSIDE_LOCK).is_file()
+        with pytest.raises(OutputError, match=f"output folder {re.escape(str(out))} is being written by another"):
+            with output_folder(out):
+                pass
+        (staging / "a.txt").write_text("1")
+    assert sorted(os.listdir(out)) == [MARKER, "a.txt"] and os.listdir(parent) == ["out"]
+    write_outputs(out, {"a.txt": "2"})  # the planner's own folder again
+    assert contents(out) == {"a.txt": "2", MARKER: (out / MARKER).read_text()} and os.listdir(parent) == ["out"]
+    with pytest.raises(OutputError, match="cannot write in"):  # an absent folder there cannot be made
+        monkeypatch.setattr(outputs.os, "access", lambda path, mode: Path(path) != parent)
+        write_outputs(parent / "new", {"a.txt": "1"})
 
 
 def test_a_lock_file_holding_data_is_refused_and_kept(tmp_path):

@@ -794,6 +794,12 @@ def test_a_plan_result_describes_the_trajectory_it_holds():
             dataclasses.replace(result, via_points=wrong)
     with pytest.raises(dataclasses.FrozenInstanceError):
         result.trajectory = faster.trajectory
+    for name, wrong, said in (("timings_s", None, "not NoneType"), ("timings_s", {"ik": -1.0}, "'ik': -1.0"),
+                              ("timings_s", {"ik": None}, "'ik': None"), ("branch_times", {1: 2.0}, "1: 2.0")):
+        with pytest.raises(InputError, match=f"a plan result's {name} must map names to seconds.*{said}"):
+            dataclasses.replace(result, **{name: wrong})  # save() then failed with a TypeError (sweep 26)
+    copy = dataclasses.replace(result, branch_times={"optimal": 2, "continuous": None})
+    assert copy.timings_s == result.timings_s and copy.timings_s is not result.timings_s  # write() adds to its own
 
 
 def test_the_summary_holds_what_repeats_the_run():

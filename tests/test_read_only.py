@@ -21,6 +21,8 @@ def test_frozen_values_hold_read_only_arrays_and_leave_the_callers_alone():
     for array in arrays:
         with pytest.raises(ValueError, match="read-only"):
             array[..., 0] = 0.0
+        with pytest.raises(ValueError, match="WRITEABLE"):  # an array that owned its data could be (sweep 26)
+            array.setflags(write=True)
 
 
 def test_copies_and_unpickled_values_keep_their_arrays_read_only():

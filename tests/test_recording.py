@@ -162,26 +162,45 @@ def test_bytes_after_a_recording_are_one_line_without_rerun_logging(planned, tmp
     assert run.returncode == 2 and run.stderr.count("\n") == 1 and "bytes after its end" in run.stderr, run.stderr
 
 
-def test_a_byte_that_crashes_rerun_s_decoder_is_one_line_and_exit_2(tmp_path):
-    """One changed byte of a plan's recording made Rerun's Arrow decoder panic (rerun-sdk 0.2x: byte 47729 of
-    the two-joint task's): the process aborted with a 60-line Rust backtrace (exit 134), and from Python no
-    ``except`` could catch it. A fresh process, as a user runs it, refuses it in one line with exit 2; the
-    unchanged file passes."""
+def test_two_recordings_joined_are_named_as_such(planned, tmp_path):
+    """``cat a.rrd a.rrd``: the message quoted 3,000 characters of the definitions (sweep 26)."""
+    _, out = planned
+    joined = tmp_path / "joined.rrd"
+    joined.write_bytes((out / "trajectory.rrd").read_bytes() * 2)
+    with pytest.raises(RecordingError, match=r"holds 2 planner_definition texts where a recording holds one \(two "
+                                             r"recordings joined into one file\?\)$"):
+        read_recording(joined)
+
+
+def test_a_decoder_that_crashes_is_one_line_and_exit_2(planned, tmp_path):
+    """One changed byte of a plan's recording made Rerun's Arrow decoder panic (rerun-sdk 0.2x): the process
+    aborted with a 60-line Rust backtrace (exit 134), and from Python no ``except`` could catch it. Which byte
+    does so moves from file to file (the recording's ids and compression differ each run), so the decoder is
+    made to panic and abort here, in a fresh process as a user runs it: one line naming the panic, exit 2;
+    the same process with the decoder as it is passes the file."""
     import subprocess
     import sys
 
-    from planner import make_task, plan
-    task = make_task(name="j2", joints_deg=[[0, 0], [40, -20], [90, 10]], trajectory={"family": "hybrid"},
-                     limits={"velocity_deg_s": [60, 60], "acceleration_deg_s2": [120, 120], "jerk_deg_s3": [600, 600]})
-    plan(task).save(tmp_path / "out")
-    data = bytearray((tmp_path / "out" / "trajectory.rrd").read_bytes())
-    data[47729] = 0x61
-    damaged = tmp_path / "one.rrd"
-    damaged.write_bytes(bytes(data))
-    for path, code in ((damaged, 2), (tmp_path / "out" / "trajectory.rrd", 0)):
-        run = subprocess.run([sys.executable, "-m", "planner.cli", "replay", str(path), "--check"],
+    _, out = planned
+    crash = ("import os, sys\n"
+             "import planner.recording as recording\n"
+             "def panic(path):\n"
+             "    sys.stderr.write(\"thread 'main' panicked at arrow/src/ipc.rs:1:1:\\nbuffer out of bounds\\n\")\n"
+             "    sys.stderr.flush()\n"
+             "    os.abort()\n"
+             "if sys.argv[1] == 'crash':\n"
+             "    recording._read = panic\n"
+             "from planner.cli import main\n"
+             "sys.exit(main(['replay', sys.argv[2], '--check']))\n")
+    for mode, code in (("crash", 2), ("as is", 0)):
+        run = subprocess.run([sys.executable, "-c", crash, mode, str(out / "trajectory.rrd")],
                              capture_output=True, text=True, timeout=120)
         assert run.returncode == code and run.stderr.count("\n") == (code != 0), run.stderr[:2000]
+    assert run.stdout and "not a readable Rerun recording" not in run.stdout
+    crashed = subprocess.run([sys.executable, "-c", crash, "crash", str(out / "trajectory.rrd")],
+                             capture_output=True, text=True, timeout=120)
+    assert crashed.stderr.startswith(f"error: {out / 'trajectory.rrd'}: not a readable Rerun recording (its "
+                                     f"decoder crashed on it: buffer out of bounds)")
 
 
 RATE_HZ = 50.0

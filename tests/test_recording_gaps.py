@@ -293,7 +293,7 @@ def test_two_end_markers_are_refused(tmp_path):
     from planner.errors import RecordingError
     from planner.recording import read_recording
     path, _, _ = write_recording_like_planner(tmp_path / "r.rrd", end_twice=True)
-    with pytest.raises(RecordingError, match=r"trajectory/end must hold one planner_end text, got "):
+    with pytest.raises(RecordingError, match=r"trajectory/end holds 2 planner_end texts where a recording holds one"):
         read_recording(path)
 
 

@@ -483,6 +483,23 @@ def test_a_joint_without_an_axis_is_refused_and_a_long_axis_is_a_direction(tmp_p
     assert long_axis.forward_kinematics(q).isApprox(Robot.from_urdf(PUMA).forward_kinematics(q), 1e-12)
 
 
+def test_a_joint_without_a_name_is_refused_by_its_links(tmp_path):
+    """``<joint name="">`` showed a Pinocchio vector object in the message (sweep 26)."""
+    with pytest.raises(RobotFileError, match=r"^robot 'puma560' \(.*\): the <joint> from link 'link2' to link "
+                                             r"'link3' has an empty name; give every joint a name of its own$"):
+        Robot.from_urdf(puma_edited(tmp_path, '<joint name="joint3"', '<joint name=" "'))
+
+
+def test_a_urdf_declaring_xml_entities_is_refused(tmp_path):
+    """``<!ENTITY j "jointA">`` and ``name="&j;"``: the planner's XML checks read jointA, Pinocchio the literal
+    "&j;", which then named the joint in the outputs (sweep 26)."""
+    urdf = puma_edited(tmp_path, '<joint name="joint3"', '<joint name="&j;"')
+    urdf.write_text(urdf.read_text().replace("<robot ", '<!DOCTYPE robot [<!ENTITY j "joint3">]>\n<robot ', 1))
+    with pytest.raises(RobotFileError, match=r"declares XML entities \(<!ENTITY \.\.\.>\), which Pinocchio's URDF "
+                                             r"parser does not expand"):
+        Robot.from_urdf(urdf)
+
+
 def test_a_mimic_joint_in_the_chain_is_refused(tmp_path):
     """Pinocchio ignores <mimic> by default: the joint would be planned as if it moved freely."""
     last = 'velocity="1.919862177" effort="21.3"/>'

@@ -226,3 +226,24 @@ def test_a_replay_killed_outright_takes_its_headless_viewer_with_it(recording, t
     with atomic_file(tmp_path / "s.png") as temporary:
         temporary.write_bytes(b"png")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.png"]
+
+
+@pytest.mark.parametrize("output, said", [
+    ("thread 'main' panicked at 'No glyph for \"ם\" (U+05DD) in Proportional. Installed fonts: [\"Inter\"].'\n"
+     "  17: <egui::ui::Ui>::scope::<TimeSeriesView error>\n",
+     r"^Rerun's viewer cannot draw the character ם \(U\+05DD\) of a name in the recording .*Latin, Greek or Cyrillic"),
+    ("INFO start\nthread 'main' panicked at crates/viewer/src/app.rs:12:5:\nindex out of bounds\n  3: error frame\n",
+     r"^Rerun's headless viewer stopped with an error \(thread 'main' panicked at crates/viewer/src/app.rs:12:5: "
+     r"index out of bounds\)$"),
+    ("[ERROR wgpu] no suitable adapter found\n", r"^no graphics adapter for Rerun's headless viewer: install"),
+])
+def test_the_viewers_own_reason_is_the_one_line(output, said):
+    """A name the viewer's font cannot draw (CJK, Hebrew) made it panic, and the line named a backtrace frame
+    and a graphics adapter as the cause (sweep 26): a panic is reported as such, a missing glyph by its
+    character and what to do."""
+    from planner.screenshot import _failure
+    with tempfile.TemporaryFile() as log:
+        log.write(output.encode())
+        error = _failure(102, log)
+    assert re.search(said, str(error)) and "\n" not in str(error)
+    assert ("graphics adapter" in str(error)) == ("adapter" in output)

@@ -6,7 +6,7 @@ from hypothesis.extra.numpy import arrays
 from scipy.interpolate import make_interp_spline
 
 from conftest import via_and_durations
-from planner import InputError, JointLimits, PlannerError, get_family
+from planner import InputError, JointLimits, PlannerError, get_family, kinematic_figures
 from planner.splines import PiecewisePolynomial, hermite7
 
 
@@ -374,6 +374,18 @@ def test_durations_of_no_physical_size_are_refused_by_name_in_every_family(famil
     if family == "quintic":
         with pytest.raises(InputError, match="physical size"):
             spline.build_batch(via, h[None])
+
+
+@pytest.mark.parametrize("h", [1e-160, 1e-110, 5e-324])
+def test_a_term_that_vanishes_alone_is_refused(h):
+    """q = 3 tau^2 - 2 tau^3 over 1e-160 s: c_3 h^3 underflows to 0 beside c_2 h^2 = 3e-320, and the exact
+    figures took its jerk of 12 rad/s^3 for none (a jerk limit of 1 deg/s^3 held, sweep 26). Where every term
+    keeps a normal number the figures agree with the closed form."""
+    coefficients = np.array([[[0.0, 0.0, 3.0, -2.0]]])
+    with pytest.raises(InputError, match="physical size"):
+        PiecewisePolynomial(np.array([h]), coefficients, np.array([0, 1]))
+    figures = kinematic_figures(PiecewisePolynomial(np.array([1e-100]), coefficients, np.array([0, 1])))
+    np.testing.assert_allclose(figures.max_abs.ravel(), [6e-100, 6.0, 12.0], rtol=1e-12)
 
 
 def test_sample_times_never_exceed_their_cap():
