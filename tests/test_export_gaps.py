@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from planner import get_family, paper
-from planner.export import read_trajectory_csv, write_trajectory_csv
+from planner.export import read_trajectory_csv, write_json, write_trajectory_csv
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -57,3 +57,14 @@ def test_torque_columns_are_named_tau_joint_nm(tmp_path):
     assert header[-2:] == ["tau_a_Nm", "tau_b_Nm"] and len(header) == 1 + 5 * 2
     times, values = read_trajectory_csv(tmp_path / "t.csv")
     assert values.shape == (4, len(times), 2)
+
+
+def test_json_is_indented_by_two_spaces_unless_asked_for_a_value_per_line(tmp_path):
+    """summary.json's layout (write_json's default): the document indented by two spaces, as Python's json
+    writes it, one number per line in an array; the value-per-line layout only when asked for."""
+    data = {"task": "pick", "limits": {"velocity": [1.5, 2.0]}, "feasible": True}
+    write_json(tmp_path / "default.json", data)
+    assert (tmp_path / "default.json").read_text(encoding="utf-8") == json.dumps(data, indent=2) + "\n"
+    assert (tmp_path / "default.json").read_text(encoding="utf-8").splitlines()[2] == '  "limits": {'
+    write_json(tmp_path / "lines.json", {"a": np.array([1.0, 2.0]), "b": "x"}, value_per_line=True)
+    assert (tmp_path / "lines.json").read_text(encoding="utf-8") == '{\n  "a": [1.0, 2.0],\n  "b": "x"\n}\n'

@@ -1,10 +1,23 @@
 """Gaps in the tests of planner/kinematics.py found by mutation testing (mutmut)."""
 
+import pickle
+import re
+
 import numpy as np
 import pytest
 
 from planner import InputError, JointLimits, get_family, paper
-from planner.kinematics import KinematicFigures, column_roots, segment_extrema, segment_ranges
+from planner.kinematics import (
+    ROUNDING_ULPS,
+    KinematicFigures,
+    column_roots,
+    continuity_breaks,
+    segment_extrema,
+    segment_ranges,
+    via_point_misses,
+)
+from planner.limits import FEASIBILITY_TOLERANCE
+from planner.splines import PiecewisePolynomial
 
 P = np.polynomial.polynomial
 
@@ -155,3 +168,136 @@ def test_column_roots_deflate_a_root_at_one_by_each_polynomials_own_scale(layout
     expected = np.sort([r.real for r in np.roots(small[::-1]) if abs(r.imag) < 1e-12 and 0 <= r.real <= 1])
     assert found.shape == expected.shape == (3,)
     assert np.allclose(found, expected, rtol=0, atol=1e-9)
+
+
+# Found by a mutation run (mutmut 3.8.1, session 49): continuity_breaks' tolerance knot by knot, Break's pickling,
+# via_point_misses' fields.
+
+P = np.polynomial.polynomial
+EPS = np.finfo(float).eps
+
+
+def _allowances(coefficients, durations):
+    """The tolerance continuity_breaks documents, computed here from its docstring: per order d (0, 1, 2),
+    FEASIBILITY_TOLERANCE times the order's scale (the largest sum_i |c_i^(d)| h^i over segments and
+    joints, at least 1 rad for positions) plus ROUNDING_ULPS eps |q|_j / h^d, with |q|_j the joint's largest
+    |c_0| and h the shorter segment at a knot (the first segment at the start, the last at the end).
+    Returns {d: (S + 1, J)}: at the start, each interior knot, the end."""
+    segments, joints, _ = coefficients.shape
+    magnitude = np.abs(coefficients[..., 0]).max(axis=0)
+    at = np.r_[durations[0], np.minimum(durations[:-1], durations[1:]), durations[-1]]
+    found = {}
+    for d in range(3):
+        bound = max(np.sum(np.abs(P.polyder(coefficients[k, j], d)) * durations[k] ** np.arange(
+            coefficients.shape[-1] - d)) for k in range(segments) for j in range(joints))
+        scale = max(bound, 1.0) if d == 0 else bound
+        found[d] = FEASIBILITY_TOLERANCE * scale + ROUNDING_ULPS * EPS * magnitude[None, :] / at[:, None] ** d
+    return found
+
+
+def _lines(trajectory):
+    """{(joint, quantity, where): Break}, where a knot index or 'start' / 'end'."""
+    found = {}
+    for line in continuity_breaks(trajectory):
+        knot = re.search(r"at knot (\d+) ", line)
+        where = int(knot.group(1)) if knot else ("start" if "at the start" in line else "end")
+        found[(line.joint, line.quantity, where)] = line
+    return found
+
+
+def test_each_break_is_held_to_the_rounding_of_its_own_knot():
+    """A small motion 100 rad from zero in segments of 0.05, 0.01, 0.4 and 1 s: the rounding term,
+    eps |q| / h^d, dominates every velocity and acceleration tolerance, and differs from knot to knot (the
+    start's h is not knot 1's, nor the end's the last knot's). Joint 1 jumps at knot 1, joint 0 first at
+    knot 2 (its second segment continues its first to the second derivative), and both move at the start
+    and the end: each break's tolerance is that of its own knot, or end, and its value the jump."""
+    durations = np.array([0.05, 0.01, 0.4, 1.0])
+    rng = np.random.default_rng(11)
+    coefficients = np.zeros((4, 2, 6))
+    coefficients[..., 1:] = rng.uniform(-1e-6, 1e-6, (4, 2, 5))
+    coefficients[..., 0] = 100.0 + rng.uniform(-1e-4, 1e-4, (4, 2))       # position jumps: 1e-9 of 100 rad
+    coefficients[0, :, 1:3] = [[1e-5, -1e-5], [-2e-5, 1.5e-5]]                # moving at the start
+    # joint 0, segment 1: segment 0's polynomial from tau = h_0 on, plus powers 3 and up (C2 at knot 1)
+    coefficients[1, 0, :3] = [P.polyval(durations[0], P.polyder(coefficients[0, 0], d)) / np.prod(np.arange(1, d + 1))
+                              for d in range(3)]
+    trajectory = PiecewisePolynomial(durations, coefficients, np.array([0, 1, 2, 3, 4]))
+    allowed = _allowances(coefficients, durations)
+    lines = _lines(trajectory)
+    names = ("position", "velocity", "acceleration")
+    expected = {(1, q, 1) for q in names} | {(0, q, 2) for q in names} | {
+        (j, q, w) for j in (0, 1) for q in names[1:] for w in ("start", "end")}
+    assert set(lines) == expected
+    for (joint, quantity, where), line in lines.items():
+        d = names.index(quantity)
+        if where == "start":
+            value, limit = coefficients[0, joint, d] * np.prod(np.arange(1, d + 1)), allowed[d][0, joint]
+        elif where == "end":
+            value = P.polyval(durations[-1], P.polyder(coefficients[-1, joint], d))
+            limit = allowed[d][-1, joint]
+        else:
+            k = where
+            value = P.polyval(durations[k - 1], P.polyder(coefficients[k - 1, joint], d)) - \
+                coefficients[k, joint, d] * np.prod(np.arange(1, d + 1))
+            limit = allowed[d][k, joint]
+        assert abs(line.value) == pytest.approx(abs(value), rel=1e-6, abs=1e-13), (joint, quantity, where)
+        assert line.limit == pytest.approx(limit, rel=1e-9), (joint, quantity, where)
+        assert abs(value) > 10 * limit  # a break, far from its tolerance either way
+
+
+@pytest.mark.parametrize("order, jump, is_break", [
+    (0, 0.5e-9, False), (0, 2e-9, True),        # positions: 1e-9 of at least 1 rad, whatever the motion
+    (1, 1e-10, True), (2, 1e-10, True),         # a slow motion's velocity and acceleration: 1e-9 of theirs
+])
+def test_a_small_motion_near_zero_is_held_to_its_own_scale_but_positions_to_at_least_1_rad(order, jump, is_break):
+    """Positions within 1e-3 rad of zero, velocities and accelerations about 1e-3: a position jump is
+    measured against 1e-9 rad (the 1 rad floor), a velocity or acceleration jump against 1e-9 of the
+    motion's own (no floor)."""
+    durations = np.array([1.0, 1.0])
+    coefficients = np.zeros((2, 1, 4))
+    coefficients[0, 0] = [0.0, 0.0, 1e-3, -5e-4]
+    # the second segment continues the first (to its second derivative) at knot 1
+    coefficients[1, 0] = [P.polyval(1.0, coefficients[0, 0]), P.polyval(1.0, P.polyder(coefficients[0, 0])),
+                          P.polyval(1.0, P.polyder(coefficients[0, 0], 2)) / 2, 2e-4]
+    quantity = ("position", "velocity", "acceleration")[order]
+    assert (0, quantity, 1) not in _lines(PiecewisePolynomial(durations, coefficients, np.array([0, 1, 2])))
+    coefficients[1, 0, order] += jump / np.prod(np.arange(1, order + 1))
+    lines = _lines(PiecewisePolynomial(durations, coefficients, np.array([0, 1, 2])))
+    assert ((0, quantity, 1) in lines) == is_break
+    if is_break:
+        assert lines[(0, quantity, 1)].limit == pytest.approx(_allowances(coefficients, durations)[order][1, 0],
+                                                              rel=1e-9)
+
+
+def test_a_break_pickles_whole():
+    """A check run in a worker process returns its lines whole: the text with the fields."""
+    coefficients = np.zeros((2, 1, 2))
+    coefficients[:, 0, 0] = [0.0, 0.5]
+    (line,) = continuity_breaks(PiecewisePolynomial(np.ones(2), coefficients, np.array([0, 1, 2])))
+    copy = pickle.loads(pickle.dumps(line))
+    assert str(copy) == str(line) == "joint joint1 position jumps by 28.6479 deg at knot 1 (t = 1 s)"
+    assert (copy.joint, copy.quantity, copy.value, copy.limit) == (line.joint, line.quantity, line.value, line.limit)
+
+
+def test_a_missed_via_point_is_named_once_per_joint_with_its_fields_against_2e_9_of_at_least_1_rad():
+    """Linear segments through 0.5, -0.5 and 5 rad at 0, 1 and 3 s; the via-points given are moved off
+    them: joint 0 by 1.5e-9 rad at via-point 1 (within 2e-9 of 1 rad, the floor under |0.5 rad|), joint 1
+    by 3e-9 rad at via-point 1 (a miss) and by 5e-9 rad at via-point 2, which a 5 rad via-point allows (1e-8)."""
+    coefficients = np.zeros((2, 2, 2))
+    coefficients[0, :, 0], coefficients[0, :, 1] = [0.5, 0.5], [-1.0, -1.0]        # 0.5 -> -0.5 in 1 s
+    coefficients[1, :, 0], coefficients[1, :, 1] = [-0.5, -0.5], [2.75, 2.75]      # -0.5 -> 5 in 2 s
+    trajectory = PiecewisePolynomial(np.array([1.0, 2.0]), coefficients, np.array([0, 1, 2]))
+    via = trajectory.evaluate(trajectory.via_times)                              # exactly on the trajectory
+    np.testing.assert_allclose(via, [[0.5, 0.5], [-0.5, -0.5], [5.0, 5.0]], rtol=1e-15)
+    assert via_point_misses(trajectory, via) == []
+    via[1, 0] += 1.5e-9
+    via[1, 1] += 3e-9
+    via[2, 1] += 5e-9
+    (line,) = via_point_misses(trajectory, via.tolist())
+    assert str(line) == f"joint joint2 misses via-point 1 by {np.rad2deg(3e-9):.6g} deg (t = 1 s)"
+    assert (line.joint, line.quantity) == (1, "position")
+    assert line.value == pytest.approx(3e-9, rel=1e-6) and line.limit == pytest.approx(2e-9, rel=1e-12)
+    assert [str(m) for m in via_point_misses(trajectory, via, ["a", "b"])] == [str(line).replace("joint2", "b")]
+    via[1, 1] = -0.5 + 1e-9                                                      # joint 1 now misses at 2 only
+    via[2, 1] = 5.0 + 2e-8
+    (line,) = via_point_misses(trajectory, via)
+    assert line.startswith("joint joint2 misses via-point 2 by ") and line.limit == pytest.approx(1e-8, rel=1e-12)
