@@ -17,8 +17,8 @@ def freeze_arrays(instance) -> None:
         if isinstance(value, np.ndarray):
             object.__setattr__(instance, field.name, read_only(value))
         elif isinstance(value, dict) and any(isinstance(item, np.ndarray) for item in value.values()):
-            object.__setattr__(instance, field.name, {key: read_only(item) if isinstance(item, np.ndarray) else item
-                                                      for key, item in value.items()})
+            object.__setattr__(instance, field.name, type(value)({key: read_only(item) if isinstance(item, np.ndarray)
+                                                                  else item for key, item in value.items()}))
         elif isinstance(value, tuple) and any(isinstance(item, np.ndarray) for item in value):
             object.__setattr__(instance, field.name, tuple(read_only(item) if isinstance(item, np.ndarray) else item
                                                            for item in value))
@@ -32,6 +32,24 @@ def read_only(array: np.ndarray) -> np.ndarray:
     view = copy.view()
     view.setflags(write=False)
     return view
+
+
+class ReadOnlyDict(dict):
+    """A dict that refuses changes: a frozen value's mapping (``Task.limits``, ``Task.optimizer``), which a
+    result holds as planned. Pickled, copied and read as a dict; ``copy()`` gives a plain, changeable one."""
+
+    def _refuse(self, *args, **kwargs):
+        raise TypeError("this mapping belongs to a frozen value and cannot be changed: make a new one (for a "
+                        "task, dataclasses.replace(task, optimizer={**task.optimizer, ...}))")
+
+    __setitem__ = __delitem__ = clear = pop = popitem = setdefault = update = __ior__ = _refuse  # type: ignore[assignment]
+
+    def copy(self) -> dict:  # type: ignore[override]
+        """A plain dict of the same items."""
+        return dict(self)
+
+    def __reduce__(self):
+        return type(self), (dict(self),)
 
 
 class ReadOnlyArrays:

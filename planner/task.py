@@ -51,7 +51,7 @@ import numpy as np
 from .errors import SHOWN_VALUE_CHARS, InputError, SettingError, TaskError, path_encoding_advice, shown
 from .ik import BRANCH_RULES
 from .limits import LARGEST_POSITION_DEG, LIMIT_DEG_RANGE, LIMITED, PROFILE_QUANTITIES, TORQUE_RANGE_NM
-from .read_only import ReadOnlyArrays, freeze_arrays
+from .read_only import ReadOnlyArrays, ReadOnlyDict, freeze_arrays
 from .splines import FAMILIES
 from .timing import OPTIMIZERS, SETTING_RANGES, checked_settings, setting_names
 from .timing.problem import OBJECTIVES
@@ -223,6 +223,15 @@ class Task(ReadOnlyArrays):
     robot_limits: RobotAwareLimits = field(default_factory=RobotAwareLimits)
 
     def __post_init__(self):
+        """Arrays read-only, and ``limits`` and ``optimizer`` (with its ``settings``) read-only mappings: a plan
+        result holds its task as planned (a script that changed them after planning made the summary report
+        values never planned)."""
+        if isinstance(self.optimizer, dict):
+            settings = self.optimizer.get("settings")
+            object.__setattr__(self, "optimizer", ReadOnlyDict(
+                {**self.optimizer, **({"settings": ReadOnlyDict(settings)} if isinstance(settings, dict) else {})}))
+        if isinstance(self.limits, dict):
+            object.__setattr__(self, "limits", ReadOnlyDict(self.limits))
         freeze_arrays(self)
 
 

@@ -503,15 +503,25 @@ def test_the_summary_is_the_summary_json_document(tmp_path):
 TWO_JOINTS = {"velocity_deg_s": [60, 60], "acceleration_deg_s2": [120, 120], "jerk_deg_s3": [600, 600]}
 
 
-def test_a_task_changed_after_planning_leaves_the_result_as_planned():
+def test_a_task_cannot_be_changed_after_planning():
     """The Task's dicts were the result's: setting bounds and the objective on it afterwards made the
-    summary report them, not what was planned (sweep 11)."""
+    summary report them, not what was planned (sweep 11), and the result's own task could still be changed
+    (``result.task.optimizer["algorithm"] = "bogus"``, sweep 26). A Task's limits and optimizer (and its
+    settings) are read-only mappings; a changed copy is a new Task, and the result stays as planned."""
+    import dataclasses
+
     task = planner.make_task(joints_deg=[[0, 0], [40, -20], [90, 10]], limits=TWO_JOINTS,
                              optimizer={"bounds_s": [0.2, 3.0]})
     result = plan(task)
     before = result.summary()["optimizer"]
-    task.optimizer["bounds"] = (9.0, 10.0)
-    task.optimizer["objective"] = "time-jerk"
+    for mapping in (task.optimizer, task.limits, task.optimizer["settings"], result.task.optimizer,
+                    result.task.limits):
+        with pytest.raises(TypeError, match="cannot be changed: make a new one"):
+            mapping["bounds"] = (9.0, 10.0)
+        with pytest.raises(TypeError, match="cannot be changed"):
+            mapping.update(objective="time-jerk")
+    changed = dataclasses.replace(task, optimizer={**task.optimizer, "bounds": (9.0, 10.0)})
+    assert changed.optimizer["bounds"] == (9.0, 10.0) and task.optimizer["bounds"] == (0.2, 3.0)
     assert result.summary()["optimizer"] == before and before["bounds_s"] == [0.2, 3.0]
     assert result.trajectory.durations.max() <= 3.0 + 1e-12
 

@@ -50,3 +50,23 @@ def test_the_robot_limit_outcome_holds_read_only_arrays():
     for array in (result.torque_limit, result.robot_limits.check.times, result.robot_limits.check.torque):
         with pytest.raises(ValueError, match="read-only"):
             array[0] = -1.0
+
+
+def test_a_tasks_mappings_stay_read_only_in_copies_and_read_as_dicts():
+    """``Task.limits`` and ``Task.optimizer`` (sweep 26): pickled or deep-copied they stay read-only, and they
+    compare, serialise and copy (``copy()``: a plain, changeable dict) as dicts."""
+    import copy
+    import json
+    import pickle
+    task = load_task(ROOT / "scripts" / "tasks" / "ur5_pick_and_place.yaml")
+    for copied in (pickle.loads(pickle.dumps(task)), copy.deepcopy(task)):
+        assert copied.optimizer == task.optimizer and copied.limits.keys() == task.limits.keys()
+        for mapping in (copied.optimizer, copied.limits, copied.optimizer["settings"]):
+            with pytest.raises(TypeError, match="cannot be changed"):
+                mapping.clear()
+        with pytest.raises(ValueError, match="read-only"):
+            next(iter(copied.limits.values()))[0] = 0.0
+    plain = task.optimizer.copy()
+    plain["algorithm"] = "nlp"
+    assert type(plain) is dict and task.optimizer["algorithm"] == "default"
+    assert json.loads(json.dumps({k: v for k, v in task.optimizer.items() if k != "weights"}))["algorithm"] == "default"
