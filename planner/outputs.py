@@ -152,11 +152,13 @@ def check_writable_location(path: Path, what: str) -> None:
 
 
 def _listing(folder: Path) -> set[str]:
-    """The names in ``folder`` but a planner's lock there (``INSIDE_LOCK``)."""
+    """The names in output folder ``folder`` but the planner's own working entries there: a lock
+    (``INSIDE_LOCK``) and staging folders (``_stale_staging``: a run's writing in place, or a killed one's)."""
     try:
-        return {entry.name for entry in folder.iterdir()} - {INSIDE_LOCK}
+        names = {entry.name for entry in folder.iterdir()}
     except OSError as exc:
         raise OutputError(f"output folder {folder}: cannot list it ({exc.strerror})") from None
+    return names - {INSIDE_LOCK} - {entry.name for entry in _stale_staging(folder, folder.name)}
 
 
 def _signature(path: Path) -> list[int] | None:
@@ -253,7 +255,7 @@ def _check_folder(folder: Path, force: bool, files: set[str]) -> tuple[Path, boo
         raise OutputError(f"output folder {folder} is an existing file; give a folder")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise OutputError(f"output folder {folder} is not writable")
-    present = _listing(folder) - {entry.name for entry in _stale_staging(folder, folder.name)}  # (a run's, in place)
+    present = _listing(folder)
     planner = _planner_files(folder)  # None: no marker, or a marker that is not the planner's (a folder, say)
     owned = _own_files(planner, files)
     foreign = present - (owned or set()) - ({MARKER} if owned is not None else set())

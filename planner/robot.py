@@ -170,8 +170,10 @@ class Robot:
         problem = _bad_mass(root) or (f"an element the URDF parser skipped{_detail(parser_log)}" if swallowed else "")
         if problem:
             raise RobotFileError(f"cannot load URDF {path}: {problem}", path=path)
+        name = model.name or path.stem
+        _check_joint_names(root, path, name)
         extra = _read_limit_file(path.with_suffix(".limits.yaml"))
-        return cls._build(model.name or path.stem, model, tool_frame, path, tuple(folders), extra)
+        return cls._build(name, model, tool_frame, path, tuple(folders), extra)
 
     @classmethod
     def from_example_robot_data(cls, name: str, tool_frame: str | None = None) -> "Robot":
@@ -203,7 +205,6 @@ class Robot:
 
     @classmethod
     def _build(cls, name, model, tool_frame, urdf_path, package_dirs, extra_limits) -> "Robot":
-        _check_joint_names(Path(urdf_path), name)
         frame_names = [f.name for f in model.frames]
         defaulted = tool_frame is None
         if tool_frame is None:
@@ -395,19 +396,16 @@ def _well_formed_root(path: Path):
     import xml.etree.ElementTree as ElementTree
 
     try:
-        root = ElementTree.parse(path).getroot()
-    except ElementTree.ParseError as exc:
-        xacro = "xacro:" in path.read_text(encoding="utf-8", errors="replace")
-        remedy = "expand the xacro macros first (xacro FILE > ROBOT.urdf)" if xacro else "fix the file"
-        raise RobotFileError(f"cannot load URDF {path}: not well-formed XML ({exc}); the planner's checks of its "
-                             f"joints, masses and meshes read it as XML: {remedy}", path=path) from None
+        raw = path.read_bytes()
     except OSError as exc:
         raise RobotFileError(f"cannot load URDF {path}: cannot read it ({exc.strerror or exc})", path=path) from None
     try:
-        entities = b"<!ENTITY" in path.read_bytes()  # the XML parser above expands them, Pinocchio's takes "&name;"
-    except OSError:
-        entities = False  # (gone since: Pinocchio will say so)
-    if entities:
+        root = ElementTree.fromstring(raw)
+    except ElementTree.ParseError as exc:
+        remedy = "expand the xacro macros first (xacro FILE > ROBOT.urdf)" if b"xacro:" in raw else "fix the file"
+        raise RobotFileError(f"cannot load URDF {path}: not well-formed XML ({exc}); the planner's checks of its "
+                             f"joints, masses and meshes read it as XML: {remedy}", path=path) from None
+    if b"<!ENTITY" in raw:  # the XML parser above expands them, Pinocchio's takes "&name;" as it is
         raise RobotFileError(f"cannot load URDF {path}: it declares XML entities (<!ENTITY ...>), which Pinocchio's "
                              f"URDF parser does not expand (a joint would be named '&name;'): write their values "
                              f"out", path=path)
@@ -511,14 +509,14 @@ def _bad_mass(root) -> str:
     return ""
 
 
-def _check_joint_names(urdf_path: Path, name: str) -> None:
-    """Refuse a URDF ``<joint>`` without a name (Pinocchio reads it as the empty name; errors and outputs
-    name joints by their names), naming its links.
+def _check_joint_names(root, urdf_path: Path, name: str) -> None:
+    """Refuse a ``<joint>`` without a name under the URDF's ``root`` element (Pinocchio reads it as the empty
+    name; errors and outputs name joints by their names), naming its links.
 
     Raises:
         RobotFileError: naming the joint's parent and child links.
     """
-    for joint in urdf_elements(urdf_path, "joint"):
+    for joint in root.findall("joint"):
         if not (joint.get("name") or "").strip():
             links = [(joint.find(end).get("link") if joint.find(end) is not None else None) for end in ("parent",
                                                                                                     "child")]
