@@ -9,6 +9,7 @@ from typing import Callable
 
 import numpy as np
 
+from . import trigonometric
 from .limits import PROFILE_QUANTITIES, default_joint_names
 from .splines import PiecewisePolynomial
 
@@ -110,15 +111,35 @@ def coefficients_document(trajectory: PiecewisePolynomial, joint_names: list[str
     (``normalized_coefficients``, b_i = c_i h_k^i). The normalized ones stay of the size of
     the motion [rad] however short a segment is (local-time ones grow like h_k^-i), so they
     are the better-conditioned form to store or send; derivatives are b-based ones divided by h_k^d.
+
+    A ``trigonometric`` trajectory is written as its coefficients a[k][j][i] of the basis functions
+    (``trigonometric.BASIS``) in theta = SPAN (t - knot_times[k]) / h_k in [0, SPAN], SPAN = 3 pi / 4 (format
+    ``piecewise-trigonometric/v1``): already of the size of the motion, their time derivatives are the
+    theta ones times (SPAN / h_k)^d.
     """
     durations = trajectory.durations
+    names = joint_names or list(default_joint_names(trajectory.joint_count))
+    if trajectory.basis == "trigonometric":
+        terms = " + ".join(f"a{i}" if k == 0 else f"a{i} {kind}({'' if k == 1 else f'{k} '}theta)"
+                           for i, (k, kind) in enumerate(trigonometric.BASIS))
+        return {
+            "format": "piecewise-trigonometric/v1",
+            "units": {"time": "s", "position": "rad"},
+            "basis": f"q(t) = {terms}, theta = 3 pi (t - knot_times[k]) / (4 durations_s[k]) in [0, 3 pi / 4]",
+            "joint_names": names,
+            "coefficients_axes": ["segment", "joint", "term"],
+            "knot_times_s": trajectory.knot_times,
+            "durations_s": durations,
+            "via_times_s": trajectory.via_times,
+            "coefficients": trajectory.coefficients,
+        }
     normalized = trajectory.coefficients * durations[:, None, None] ** np.arange(trajectory.coefficients.shape[-1])
     return {
         "format": "piecewise-polynomial/v1",
         "units": {"time": "s", "position": "rad"},
         "basis": "power series in local time tau = t - knot_times[k], lowest order first",
         "normalized_basis": "power series in s = (t - knot_times[k]) / durations_s[k] in [0, 1], lowest order first",
-        "joint_names": joint_names or list(default_joint_names(trajectory.joint_count)),
+        "joint_names": names,
         "coefficients_axes": ["segment", "joint", "power"],
         "segment_degrees": trajectory.segment_degrees,
         "knot_times_s": trajectory.knot_times,

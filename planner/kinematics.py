@@ -9,6 +9,9 @@ the closed-form integral of a squared polynomial. No sampling.
 Each segment polynomial p(tau), tau in [0, h], is first normalised to
 P(s) = p(s h), s in [0, 1] (coefficients c_i h^i), which keeps the root
 finding well conditioned whatever the durations.
+
+Each function takes the coefficients' ``basis`` (``splines.BASES``): ``power`` here, ``trigonometric``
+through ``trigonometric.py``'s counterparts (roots of trigonometric polynomials).
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from math import comb
 
 import numpy as np
 
+from . import trigonometric
 from .errors import InputError
 from .limits import (
     FEASIBILITY_TOLERANCE,
@@ -246,7 +250,7 @@ def _block_candidates(coefficients: np.ndarray, durations: np.ndarray, orders):
     return p, np.concatenate((ends, roots), axis=-1)
 
 
-def segment_ranges(coefficients: np.ndarray, durations: np.ndarray, orders=(0,)):
+def segment_ranges(coefficients: np.ndarray, durations: np.ndarray, orders=(0,), basis: str = "power"):
     """Exact min and max of q^(d) on every segment, for each order d in ``orders``.
 
     Candidates are the segment ends and the real roots of q^(d+1) inside.
@@ -257,10 +261,13 @@ def segment_ranges(coefficients: np.ndarray, durations: np.ndarray, orders=(0,))
         coefficients: (B, S, J, D+1) each segment's coefficients in its local time tau [s], lowest first.
         durations: (B, S) [s].
         orders: the derivative orders d (0: position).
+        basis: the coefficients' basis (module docstring).
 
     Returns:
         (low, high), each (len(orders), B, S, J) [SI units of each order].
     """
+    if basis == "trigonometric":
+        return trigonometric.segment_ranges(coefficients, durations, orders)
     batch, segments, joints, _ = coefficients.shape
     low = np.empty((len(orders), batch, segments, joints))
     high = np.empty_like(low)
@@ -273,7 +280,7 @@ def segment_ranges(coefficients: np.ndarray, durations: np.ndarray, orders=(0,))
     return low, high
 
 
-def segment_extrema(coefficients: np.ndarray, durations: np.ndarray, orders=(0,)):
+def segment_extrema(coefficients: np.ndarray, durations: np.ndarray, orders=(0,), basis: str = "power"):
     """Where q^(d) may take its extremes on every segment, and its values there.
 
     The candidates of ``segment_ranges``, kept: the ends s = 0 and s = 1 of
@@ -283,11 +290,14 @@ def segment_extrema(coefficients: np.ndarray, durations: np.ndarray, orders=(0,)
         coefficients: (B, S, J, D+1) each segment's coefficients in its local time tau [s], lowest first.
         durations: (B, S) [s].
         orders: the derivative orders d (0: position).
+        basis: the coefficients' basis (module docstring).
 
     Returns:
         (locations, values), each (len(orders), B, S, J, C): s in [0, 1] (s = 0
         repeated where a segment has fewer roots) and q^(d)(s h) [SI units of each order].
     """
+    if basis == "trigonometric":
+        return trigonometric.segment_extrema(coefficients, durations, orders)
     batch, segments, joints, _ = coefficients.shape
     blocks = []
     for cols, degree in _degree_blocks(coefficients):
@@ -304,25 +314,34 @@ def segment_extrema(coefficients: np.ndarray, durations: np.ndarray, orders=(0,)
     return locations, values
 
 
-def max_abs(coefficients: np.ndarray, durations: np.ndarray) -> np.ndarray:
+def max_abs(coefficients: np.ndarray, durations: np.ndarray, basis: str = "power") -> np.ndarray:
     """(B, 3, J) exact max |velocity|, |acceleration|, |jerk| over the whole trajectory."""
-    low, high = segment_ranges(coefficients, durations, (1, 2, 3))
+    if basis == "trigonometric":
+        low, high = trigonometric.trajectory_ranges(coefficients, durations, (1, 2, 3))
+        return np.maximum(-low, high).swapaxes(0, 1)
+    low, high = segment_ranges(coefficients, durations, (1, 2, 3), basis)
     return np.maximum(-low, high).max(axis=2).swapaxes(0, 1)
 
 
-def position_range(coefficients: np.ndarray, durations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def position_range(coefficients: np.ndarray, durations: np.ndarray,
+                   basis: str = "power") -> tuple[np.ndarray, np.ndarray]:
     """(B, J) exact minimum and maximum position [rad] over the whole trajectory."""
-    low, high = segment_ranges(coefficients, durations, (0,))
+    if basis == "trigonometric":
+        low, high = trigonometric.trajectory_ranges(coefficients, durations, (0,))
+        return low[0], high[0]
+    low, high = segment_ranges(coefficients, durations, (0,), basis)
     return low[0].min(axis=1), high[0].max(axis=1)
 
 
-def integral_abs(coefficients: np.ndarray, durations: np.ndarray, order: int) -> np.ndarray:
+def integral_abs(coefficients: np.ndarray, durations: np.ndarray, order: int, basis: str = "power") -> np.ndarray:
     """(B, J) exact integral of |q^(order)(t)| dt over the trajectory.
 
     On each segment, the sign changes of P(s) are the real roots of P in
     [0, 1]; with A the antiderivative of P, the integral is
     h * sum |A(s_{i+1}) - A(s_i)| over the sorted breakpoints 0, roots, 1.
     """
+    if basis == "trigonometric":
+        return trigonometric.integral_abs(coefficients, durations, order)
     p = _normalised(derivative_coefficients(coefficients, order), durations)
     antiderivative = np.concatenate((np.zeros(p.shape[:-1] + (1,)), p / np.arange(1, p.shape[-1] + 1)),
                                     axis=-1)
@@ -334,12 +353,14 @@ def integral_abs(coefficients: np.ndarray, durations: np.ndarray, order: int) ->
     return (per_segment * durations[..., None]).sum(axis=1)
 
 
-def jerk_energy(coefficients: np.ndarray, durations: np.ndarray) -> np.ndarray:
+def jerk_energy(coefficients: np.ndarray, durations: np.ndarray, basis: str = "power") -> np.ndarray:
     """(B, J) exact jerk energy, the integral of q'''(t)^2 dt [rad^2/s^5].
 
     With normalised jerk coefficients J_i = j_i h^i on a segment,
     integral_0^h (sum j_i tau^i)^2 dtau = h * sum_{i,k} J_i J_k / (i + k + 1).
     """
+    if basis == "trigonometric":
+        return trigonometric.jerk_energy(coefficients, durations)
     jerk = _normalised(derivative_coefficients(coefficients, 3), durations)
     size = jerk.shape[-1]
     hilbert = 1.0 / (np.arange(size)[:, None] + np.arange(size)[None, :] + 1.0)
@@ -476,29 +497,23 @@ def continuity_breaks(trajectory: PiecewisePolynomial,
     """Where ``trajectory`` is not a motion the planner makes, one line each (empty: none): a jump of a
     joint's position, velocity or acceleration at a knot (the first per joint and order), or a velocity or
     acceleration other than 0 at the start or the end. A jump counts beyond ``FEASIBILITY_TOLERANCE`` of
-    the order's scale, the largest over segments and joints of sum_i |c_i^(d)| h^i, which bounds
-    |q^(d)| there (for positions, at least 1 rad), plus the coefficients' rounding, ``ROUNDING_ULPS`` eps
+    the order's scale, the largest over segments and joints of a bound on |q^(d)| there (sum_i |c_i^(d)| h^i
+    for polynomials; for positions, at least 1 rad), plus the coefficients' rounding, ``ROUNDING_ULPS`` eps
     |q| / h^d with |q| the joint's largest position and h the shorter segment at the knot (coefficients
     of order d are differences of positions over h^d: a 1e-9 rad motion at 3 rad, in 1 ms segments,
     jumped 1e-13 rad/s, more than 1e-9 of its velocity); the planner's own trajectories jump by less
     than 1e-12 of the scale.
 
-    On segment k, q^(d) at its start is the d-th derivative polynomial's constant term, at its end that
-    polynomial at tau = h_k (``derivative_coefficients``, ``polyval``).
+    On segment k, q^(d) at its start and end, and the bound, are ``PiecewisePolynomial.segment_ends``.
     """
-    c, h = trajectory.coefficients, trajectory.durations
+    h = trajectory.durations
     names = names or default_joint_names(trajectory.joint_count)
     knot_times = trajectory.knot_times
-    at_end = np.broadcast_to(h[:, None, None], c.shape[:2] + (1,))  # (S, J, 1): tau = h_k
-    magnitude = np.abs(c[..., 0]).max(axis=0)  # (J,) the largest position of each joint [rad]
+    magnitude = np.abs(trajectory.segment_ends(0)[0]).max(axis=0)  # (J,) the largest position of each joint [rad]
     shorter = np.minimum(h[:-1], h[1:])  # (S - 1,) at each interior knot
     breaks = []
     for order, quantity in enumerate(CONTINUOUS_ORDERS):
-        derivative = derivative_coefficients(c, order)  # (S, J, D + 1 - order)
-        start = derivative[..., 0]
-        with np.errstate(over="ignore", invalid="ignore"):
-            end = polyval(derivative, at_end)[..., 0]
-            bound = polyval(np.abs(derivative), at_end)  # sum_i |c_i^(d)| h^i bounds |q^(d)| on a segment
+        start, end, bound = trajectory.segment_ends(order)  # bound: on |q^(d)| over each segment
         scale = max(float(np.max(bound)), 1.0 if order == 0 else 0.0)
         with np.errstate(over="ignore"):
             rounding = ROUNDING_ULPS * np.finfo(float).eps * magnitude / np.concatenate(
@@ -551,13 +566,14 @@ def kinematic_figures(trajectory: PiecewisePolynomial) -> KinematicFigures:
         raise InputError(f"kinematic_figures takes a PiecewisePolynomial, not {type(trajectory).__name__}")
     c = trajectory.coefficients[None]
     h = trajectory.durations[None]
+    basis = trajectory.basis
     total = trajectory.total_time
-    low, high = position_range(c, h)
-    mean = np.stack([integral_abs(c, h, order)[0] for order in (1, 2, 3)]) / total
-    return KinematicFigures(max_abs(c, h)[0], mean, low[0], high[0], jerk_energy(c, h)[0], total)
+    low, high = position_range(c, h, basis)
+    mean = np.stack([integral_abs(c, h, order, basis)[0] for order in (1, 2, 3)]) / total
+    return KinematicFigures(max_abs(c, h, basis)[0], mean, low[0], high[0], jerk_energy(c, h, basis)[0], total)
 
 
-def batch_scale_factors(coefficients: np.ndarray, durations: np.ndarray, limits: JointLimits):
+def batch_scale_factors(coefficients: np.ndarray, durations: np.ndarray, limits: JointLimits, basis: str = "power"):
     """Constraint ratios (B, 3, J) and the time-scale factors s* (B,) of the time-scaling lemma."""
-    ratios = limits.ratios(max_abs(coefficients, durations))
+    ratios = limits.ratios(max_abs(coefficients, durations, basis))
     return ratios, time_scale_factor(ratios)

@@ -619,6 +619,7 @@ def trajectory_digest(trajectory: PiecewisePolynomial) -> str:
     digest = hashlib.sha256()
     for part in (trajectory.durations, trajectory.coefficients, trajectory.via_knots):
         digest.update(np.ascontiguousarray(part).tobytes())
+    digest.update(trajectory.basis.encode())
     return digest.hexdigest()
 
 

@@ -59,7 +59,7 @@ from .kinematics import Break, Violation, continuity_breaks, kinematic_figures, 
 from .limits import DEGREE_UNITS, PROFILE_QUANTITIES, QUANTITIES, JointLimits, seconds_text
 from .outputs import not_utf8, utf8_path
 from .read_only import ReadOnlyArrays, freeze_arrays
-from .splines import MAX_SAMPLES, PiecewisePolynomial
+from .splines import BASES, MAX_SAMPLES, PiecewisePolynomial
 from .validate import CONTROL_CHARACTERS
 
 APPLICATION_ID = "planner"
@@ -102,6 +102,7 @@ def trajectory_definition(trajectory: PiecewisePolynomial, limits: JointLimits, 
         "format": FORMAT, "joint_names": list(joint_names), "durations_s": trajectory.durations.tolist(),
         "coefficients_shape": list(trajectory.coefficients.shape),
         "coefficients": trajectory.coefficients.ravel().tolist(), "via_knots": trajectory.via_knots.tolist(),
+        "basis": trajectory.basis,
         "limits": {name: [float(v) for v in getattr(limits, name)] for name in _LIMIT_FIELDS},
     }
     if via_points is not None:
@@ -836,6 +837,9 @@ def _definition(path: Path, text: str) -> tuple[list[str], PiecewisePolynomial, 
             and all(a <= b for a, b in zip(knots, knots[1:]))):  # repeated via-points share a knot
         raise RecordingError(f"{where}: via_knots must be non-decreasing knot indices 0..{len(durations)}, "
                              f"got {shown(knots)}")
+    basis = data.get("basis", "power")  # recordings from before the trigonometric family hold power series
+    if basis not in BASES:
+        raise RecordingError(f"{where}: basis must be one of {', '.join(BASES)}, got {shown(basis)}")
     limits = data.get("limits")
     if not isinstance(limits, dict):
         raise RecordingError(f"{where}: limits must be an object of {', '.join(_LIMIT_FIELDS)}, got {shown(limits)}")
@@ -850,7 +854,7 @@ def _definition(path: Path, text: str) -> tuple[list[str], PiecewisePolynomial, 
         via_points = _numbers(where, {"via_points_rad": [v for row in given for v in row]}, "via_points_rad",
                               len(knots) * len(names)).reshape(len(knots), len(names))
     try:
-        return (names, PiecewisePolynomial(durations, coefficients.reshape(shape), np.array(knots, dtype=int)),
+        return (names, PiecewisePolynomial(durations, coefficients.reshape(shape), np.array(knots, dtype=int), basis),
                 JointLimits(bounds[0], bounds[1], bounds[2], bounds[3], bounds[4], names=tuple(names)), via_points)
     except InputError as exc:
         raise RecordingError(f"{where}: {exc}") from None

@@ -13,6 +13,8 @@ Families:
 * ``quintic``: interpolating quintic B-spline (Gasparetto & Zanotto), S = n - 1.
 * ``hermite7``: one 7th-order Hermite segment per chord, C3, with free via-point
   velocity, acceleration and jerk (optimized by the NLP), S = n - 1.
+* ``trigonometric``: ``hermite7``'s structure with Simon & Isik's order-4 trigonometric
+  segments (``trigonometric.py``), coefficients (segments, joints, 8) in theta = 3 pi tau / (4 h).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from typing import Callable
 import numpy as np
 from scipy.linalg import solve_banded
 
+from . import trigonometric
 from .errors import InputError, shown
 from .read_only import ReadOnlyArrays, freeze_arrays
 from .validate import finite_array, float_array, positive_durations, positive_finite
@@ -37,6 +40,9 @@ BUILD_TOLERANCE = 1e-6
 #: Coefficients smaller than this [rad/s^i] carry no motion: a cubic spline's joint at rest over hundreds
 #: of segments decays geometrically towards them (and into subnormal numbers, which c_i h^i may lose).
 NEGLIGIBLE = 1e-150
+#: Kinds of segment a ``PiecewisePolynomial`` holds: ``power``, polynomials sum_i c_i tau^i in local time;
+#: ``trigonometric``, the trigonometric polynomials of ``trigonometric.BASIS`` in theta = SPAN tau / h_k.
+BASES = ("power", "trigonometric")
 
 
 @dataclass(frozen=True)
@@ -45,15 +51,21 @@ class PiecewisePolynomial(ReadOnlyArrays):
 
     Attributes:
         durations: (S,) segment durations h_k [s], all > 0.
-        coefficients: (S, J, D+1) coefficients of q(tau) = sum_i c_i tau^i [rad, s].
+        coefficients: (S, J, D+1) coefficients of q(tau) = sum_i c_i tau^i [rad, s]; with the
+            ``trigonometric`` basis (S, J, 8), those a_i of ``trigonometric.BASIS`` in theta = SPAN tau / h_k
+            [rad] (trigonometric polynomials).
         via_knots: indices of the knots (0..S) at which the given via-points are passed.
+        basis: ``power`` or ``trigonometric`` (``BASES``).
     """
 
     durations: np.ndarray
     coefficients: np.ndarray
     via_knots: np.ndarray
+    basis: str = "power"
 
     def __post_init__(self):
+        if self.basis not in BASES:
+            raise InputError(f"basis must be one of {', '.join(BASES)}, got {shown(self.basis)}")
         durations = positive_durations("durations", self.durations)
         coefficients = finite_array("coefficients", self.coefficients, 3)
         if durations.ndim != 1 or coefficients.shape[0] != durations.shape[0]:
@@ -72,23 +84,24 @@ class PiecewisePolynomial(ReadOnlyArrays):
         if not np.isfinite(total):
             raise InputError(f"the durations sum to more than any number of seconds ({durations.max():g} s at most "
                              f"each): the total time must be finite")
-        with np.errstate(all="ignore"):  # the exact figures work on c_i h^i: they must not overflow, nor a
-            # moving joint's all vanish (a jerk of 6 over 1e-110 s would then be taken for none)
-            normalised = coefficients * durations[:, None, None] ** np.arange(coefficients.shape[2])
-        # a term that carries motion may not vanish alone either (c_3 h^3 of a jerk of 6 over 1e-160 s is 0,
-        # beside c_2 h^2 = 3e-320: the jerk would be taken for none, the acceleration off by 1e-5)
-        carried = np.abs(coefficients[..., 1:]) > NEGLIGIBLE
-        underflown = carried & (np.abs(normalised[..., 1:]) < np.finfo(float).tiny)
-        lost = ~np.isfinite(normalised).all(axis=2) | underflown.any(axis=2)
+        if self.basis == "trigonometric" and coefficients.shape[2] != len(trigonometric.BASIS):
+            raise InputError(f"trigonometric coefficients must be (segments, joints, {len(trigonometric.BASIS)}), "
+                             f"got shape {coefficients.shape}")
+        lost = _lost_segments(coefficients, durations, self.basis)
         if lost.any():
             k = int(np.argwhere(lost)[0][0])
+            terms = "a_i (SPAN / h)^d" if self.basis == "trigonometric" else "c_i h^i"
             raise InputError(f"segment {k}'s duration {durations[k]:.3g} s with its coefficients is beyond what "
-                             f"floating point holds (c_i h^i overflows or vanishes); give durations of a physical "
-                             f"size")
+                             f"floating point holds ({terms} overflows or vanishes); give durations of a physical size")
         object.__setattr__(self, "durations", durations)
         object.__setattr__(self, "coefficients", coefficients)
         object.__setattr__(self, "via_knots", knots.astype(int))
         freeze_arrays(self)
+
+    @property
+    def width(self) -> int:
+        """The coefficients per segment and joint: D + 1, or 8 for the ``trigonometric`` basis."""
+        return self.coefficients.shape[2]
 
     @property
     def segment_count(self) -> int:
@@ -103,7 +116,7 @@ class PiecewisePolynomial(ReadOnlyArrays):
 
     def _degrees(self) -> np.ndarray:
         """``segment_degrees`` as an array (S,), found without a loop over segments (``evaluate`` needs
-        them at every call)."""
+        them at every call); for the ``trigonometric`` basis, the highest basis function used."""
         nonzero = np.any(self.coefficients != 0.0, axis=1)  # (S, k+1)
         highest = nonzero.shape[1] - 1 - np.argmax(nonzero[:, ::-1], axis=1)
         return np.where(nonzero.any(axis=1), highest, 0)
@@ -154,6 +167,12 @@ class PiecewisePolynomial(ReadOnlyArrays):
         segment = np.clip(np.searchsorted(knots, times, side="right") - 1, 0, self.segment_count - 1)
         tau = times - knots[segment]
         values = np.empty((len(orders), len(times), self.joint_count))
+        if self.basis == "trigonometric":
+            h = np.broadcast_to(self.durations[segment][:, None], (len(times), self.joint_count))
+            at = np.broadcast_to(tau[:, None, None], h.shape + (1,))
+            for k, order in enumerate(orders):
+                values[k] = trigonometric.values(self.coefficients[segment], h, at, order)[..., 0]
+            return values
         degree_of = self._degrees()[segment]
         for degree in np.unique(degree_of).tolist():
             chosen = degree_of == degree
@@ -197,6 +216,65 @@ class PiecewisePolynomial(ReadOnlyArrays):
     def states(self, times) -> np.ndarray:
         """(4, N, J) position [rad], velocity [rad/s], acceleration [rad/s^2] and jerk [rad/s^3] at ``times``."""
         return self._derivatives(times, (0, 1, 2, 3))
+
+    def segment_ends(self, order: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """q^(order) at the start and the end of every segment, and a bound on |q^(order)| over it, each (S, J).
+
+        ``segment_ends`` of the coefficients."""
+        return segment_ends(self.coefficients, self.durations, order, self.basis)
+
+    def slowed(self, factor: float) -> "PiecewisePolynomial":
+        """The same path run ``factor`` times slower (q_k(tau) = q(tau / k) on each segment): durations times k;
+        power coefficient i divided by k^i; trigonometric coefficients unchanged (theta = SPAN tau / h keeps
+        its range)."""
+        factor = float(factor)
+        coefficients = self.coefficients
+        if self.basis == "power":
+            coefficients = coefficients * factor ** -np.arange(self.width)
+        return PiecewisePolynomial(self.durations * factor, coefficients, self.via_knots, self.basis)
+
+
+def segment_ends(coefficients: np.ndarray, durations: np.ndarray, order: int,
+                 basis: str = "power") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """q^(order) at the start and the end of every segment of ``coefficients`` (S, J, C), durations (S,) [s],
+    and a bound on |q^(order)| over the segment, each (S, J) (not finite where they overflow).
+
+    Power basis: the derivative polynomial's constant term, its value at tau = h_k, and sum_i |c_i^(d)|
+    h_k^i. Trigonometric: the values at theta = 0 and SPAN, and (SPAN / h_k)^d sum_i k_i^d |a_i| (the d-th
+    derivative of cos k theta or sin k theta is at most k^d in size)."""
+    c, h = coefficients, durations
+    with np.errstate(over="ignore", invalid="ignore"):
+        if basis == "trigonometric":
+            local = np.broadcast_to(np.stack((np.zeros_like(h), h), axis=1)[:, None, :], c.shape[:2] + (2,))
+            ends = trigonometric.values(c, np.broadcast_to(h[:, None], c.shape[:2]), local, order)
+            frequencies = np.array([k for k, _ in trigonometric.BASIS], dtype=float)
+            bound = (trigonometric.SPAN / h[:, None]) ** order * (np.abs(c) @ frequencies ** order)
+            return ends[..., 0], ends[..., 1], bound
+        at_end = np.broadcast_to(h[:, None, None], c.shape[:2] + (1,))  # (S, J, 1): tau = h_k
+        derivative = derivative_coefficients(c, order)  # (S, J, D + 1 - order)
+        return (derivative[..., 0], polyval(derivative, at_end)[..., 0],
+                polyval(np.abs(derivative), at_end)[..., 0])
+
+
+def _lost_segments(coefficients: np.ndarray, durations: np.ndarray, basis: str) -> np.ndarray:
+    """(S,) segments whose coefficients with their durations are beyond floating point: the exact figures work
+    on c_i h^i (power) or a_i (SPAN / h)^d for d <= 3 (trigonometric), which must not overflow, nor a moving
+    joint's all vanish (a jerk of 6 over 1e-110 s would then be taken for none); a term that carries motion
+    (|c_i| > ``NEGLIGIBLE``) may not vanish alone either (c_3 h^3 of a jerk of 6 over 1e-160 s is 0, beside
+    c_2 h^2 = 3e-320: the jerk would be taken for none, the acceleration off by 1e-5)."""
+    with np.errstate(all="ignore"):
+        if basis == "trigonometric":
+            rates = (trigonometric.SPAN / durations[:, None]) ** np.arange(4)  # (S, 4): d theta / d tau ^ d
+            scaled = coefficients[..., None] * rates[:, None, None, :]
+            carried = np.abs(coefficients[..., 1:, None]) > NEGLIGIBLE
+            terms = scaled[..., 1:, 1:]
+        else:
+            scaled = coefficients * durations[:, None, None] ** np.arange(coefficients.shape[2])
+            carried = np.abs(coefficients[..., 1:]) > NEGLIGIBLE
+            terms = scaled[..., 1:]
+    underflown = carried & (np.abs(terms) < np.finfo(float).tiny)
+    flat = scaled.reshape(scaled.shape[0], -1)
+    return ~np.isfinite(flat).all(axis=1) | underflown.reshape(underflown.shape[0], -1).any(axis=1)
 
 
 def checked_times(times) -> np.ndarray:
@@ -255,6 +333,8 @@ class SplineFamily:
     #: The via-point states (velocity, acceleration, jerk) are free: a timing may choose them
     #: (``coefficients_from_states``); from durations alone they follow the family's fixed rule.
     free_states: bool = False
+    #: The kind of segments it builds (``BASES``).
+    basis: str = "power"
 
     def segment_count(self, via_count: int) -> int:
         """How many durations the family needs for ``via_count`` via-points."""
@@ -313,24 +393,23 @@ class SplineFamily:
                              f"coefficients (not finite numbers); give durations of a physical size")
         knots = self.via_knots(via.shape[0])
         self._check_passes(via, h, coefficients, knots)
-        return PiecewisePolynomial(h, coefficients, knots)
+        return PiecewisePolynomial(h, coefficients, knots, self.basis)
 
     def _check_passes(self, via: np.ndarray, h: np.ndarray, coefficients: np.ndarray, knots: np.ndarray) -> None:
-        """Refuse coefficients (S, J, D+1) that rounding has parted from the via-points (n, J) [rad] or
-        broken apart at a knot by more than ``BUILD_TOLERANCE`` (relative): each segment's start c_0 and end
-        sum_i c_i h^i are compared with the via-point at its knot and with the next segment's start. An
-        end is only known to within (D + 1) eps sum_i |c_i| h^i (the sum's own rounding, large where
-        its terms cancel): that is added to its gap, so a spline whose ends no evaluation pins down is
-        refused too.
+        """Refuse coefficients (S, J, C) that rounding has parted from the via-points (n, J) [rad] or
+        broken apart at a knot by more than ``BUILD_TOLERANCE`` (relative): each segment's start and end
+        (``segment_ends``) are compared with the via-point at its knot and with the next segment's start. An
+        end is only known to within C eps times the bound on |q| there (sum_i |c_i| h^i: the sum's own
+        rounding, large where its terms cancel): that is added to its gap, so a spline whose ends no
+        evaluation pins down is refused too.
 
         Raises:
             InputError: naming the knot, the joint, the gap and the durations' spread.
         """
-        power = powers(h, coefficients.shape[2])
+        starts, ends, bound = segment_ends(coefficients, h, 0, self.basis)
         with np.errstate(all="ignore"):
-            ends = np.einsum("sjd,sd->sj", coefficients, power)
-            doubt = coefficients.shape[2] * np.finfo(float).eps * np.einsum("sjd,sd->sj", np.abs(coefficients), power)
-        positions = np.concatenate((coefficients[:, :, 0], ends[-1:]))  # (S+1, J) the start of each knot
+            doubt = coefficients.shape[2] * np.finfo(float).eps * bound
+        positions = np.concatenate((starts, ends[-1:]))  # (S+1, J) the start of each knot
         uncertain = np.concatenate((np.zeros_like(coefficients[:, :, 0]), doubt[-1:]))  # the last knot's is an end
         gaps = np.concatenate(((np.abs(positions[knots] - via) + uncertain[knots]).ravel(),
                                (np.abs(ends[:-1] - positions[1:-1]) + doubt[:-1]).ravel()))
@@ -577,6 +656,9 @@ class Hermite7Family(SplineFamily):
 
     name = "hermite7"
     free_states = True
+    #: The segment between two states (..., 4) (position, velocity, acceleration, jerk) over durations h [s]:
+    #: its coefficients (..., 8).
+    segment = staticmethod(hermite7)
 
     def segment_count(self, via_count: int) -> int:
         """n - 1: one segment per chord."""
@@ -596,15 +678,27 @@ class Hermite7Family(SplineFamily):
 
     def coefficients_from_states(self, via_points: np.ndarray, durations: np.ndarray,
                                  states: np.ndarray) -> np.ndarray:
-        """(B, S, J, 8) each segment's ``hermite7`` between the states (B, n, J, 3) (velocity,
+        """(B, S, J, 8) each segment (``segment``) between the states (B, n, J, 3) (velocity,
         acceleration, jerk) of its two via-points; the first and last via-point's are used as given."""
         position = np.broadcast_to(via_points[None, :, :, None], states.shape[:3] + (1,))
         full = np.concatenate((position, states), axis=-1)  # (B, n, J, 4)
-        return hermite7(full[:, :-1], full[:, 1:], durations[:, :, None])
+        return self.segment(full[:, :-1], full[:, 1:], durations[:, :, None])
+
+
+class TrigonometricFamily(Hermite7Family):
+    """``hermite7``'s structure (S = n - 1, C3, zero velocity, acceleration and jerk at both ends, free
+    interior via-point states, the same fixed rule ``parabola_states``) with Simon & Isik's order-4
+    trigonometric segments (``trigonometric.hermite_coefficients``): coefficients (B, S, J, 8) of
+    ``trigonometric.BASIS`` in theta = SPAN tau / h_k, theta in [0, SPAN = 3 pi / 4] with cos 4 theta (the
+    Hermite system's condition number 38.5, ``trigonometric``'s docstring)."""
+
+    name = "trigonometric"
+    basis = "trigonometric"
+    segment = staticmethod(trigonometric.hermite_coefficients)
 
 
 FAMILIES: dict[str, SplineFamily] = {f.name: f for f in (CubicFamily(), HybridFamily(), QuinticFamily(),
-                                                          Hermite7Family())}
+                                                          Hermite7Family(), TrigonometricFamily())}
 
 
 def get_family(name: str) -> SplineFamily:

@@ -1,24 +1,28 @@
 """Trigonometric Hermite segments of order 4 (Simon & Isik 1991), the ``trigonometric`` family's pieces.
 
-A segment of duration h [s] is, in its local time tau in [0, h] and theta = pi tau / h in [0, pi],
+A segment of duration h [s] is, in its local time tau in [0, h] and theta = SPAN tau / h in [0, SPAN],
+SPAN = 3 pi / 4,
 
     q(tau) = a_0 + a_1 cos theta + a_2 sin theta + a_3 cos 2 theta + a_4 sin 2 theta
-             + a_5 cos 3 theta + a_6 sin 3 theta + a_7 sin 4 theta,
+             + a_5 cos 3 theta + a_6 sin 3 theta + a_7 cos 4 theta,
 
 eight functions (``BASIS``) fixed by position, velocity, acceleration and jerk at both ends (a
 Hermite segment): the segments of a trajectory that share their via-point states are C3, and no
-linear system couples them. The interval and the eighth function are chosen for conditioning: on
-theta in [0, pi] with sin 4 theta the 8 x 8 system that maps the end states to the coefficients
-has condition number 73.7 (``HERMITE_CONDITION``); with cos 4 theta on [0, pi/2] it is singular.
-Time derivatives are theta derivatives times (pi / h)^d.
+linear system couples them. The interval and the eighth function are chosen for conditioning: the 8 x 8
+system that maps the end states to the coefficients has condition number 38.5 (``HERMITE_CONDITION``) with
+cos 4 theta on [0, 3 pi / 4], the smallest over the intervals [0, c pi], c = 0.55 .. 1 in steps of 0.05,
+with either (sin 4 theta on [0, pi]: 73.7; cos 4 theta on [0, pi / 2] or sin 4 theta on [0, 3 pi / 4]:
+singular). The choice also sets the family's shapes: through the paper's via-points under its limits the
+time-optimal trajectory takes about 16.7 s with this basis and 18.1 s with sin 4 theta on [0, pi] (the
+hybrid's: 17.3 s). Time derivatives are theta derivatives times (SPAN / h)^d.
 
 Exact figures, no sampling. Written with z = exp(i theta), q is sum_{k=-4..4} c_k z^k (``_complex``),
 so d/dtheta multiplies c_k by i k, and the critical points of q^(d) in theta are among the
 arguments of the roots of the degree-8 polynomial z^4 q^(d+1) (eigenvalues of its companion
-matrix): q^(d) at those arguments that fall in [0, pi] and at both ends bounds it from both sides.
+matrix): q^(d) at those arguments that fall in [0, SPAN] and at both ends bounds it from both sides.
 The integral of q'''^2 is a quadratic form in the coefficients whose matrix
-(``JERK_GRAM``) follows from integral_0^pi exp(i m theta) dtheta = pi (m = 0) or
-((-1)^m - 1) / (i m).
+(``JERK_GRAM``) follows from integral_0^SPAN exp(i m theta) dtheta = SPAN (m = 0) or
+(exp(i m SPAN) - 1) / (i m).
 """
 
 from __future__ import annotations
@@ -27,9 +31,11 @@ import numpy as np
 
 #: The basis functions of theta, in coefficient order: (frequency k, ``cos`` or ``sin``).
 BASIS: tuple[tuple[int, str], ...] = ((0, "cos"), (1, "cos"), (1, "sin"), (2, "cos"), (2, "sin"), (3, "cos"),
-                                      (3, "sin"), (4, "sin"))
+                                      (3, "sin"), (4, "cos"))
 #: The highest frequency.
 ORDER = 4
+#: theta's range on a segment, [0, SPAN] (module docstring).
+SPAN = 3 * np.pi / 4
 _FREQUENCIES = np.arange(-ORDER, ORDER + 1)  # k of the complex coefficients c_k, in storage order
 
 
@@ -63,8 +69,8 @@ def _theta_values(coefficients: np.ndarray, theta: np.ndarray, order: int) -> np
 
 
 def _hermite_matrix() -> np.ndarray:
-    """(8, 8) the theta derivatives 0..3 of the basis at theta = 0 (rows 0-3) and pi (rows 4-7)."""
-    rows = [_theta_values(np.eye(len(BASIS)), np.array([end]), d)[:, 0] for end in (0.0, np.pi) for d in range(4)]
+    """(8, 8) the theta derivatives 0..3 of the basis at theta = 0 (rows 0-3) and SPAN (rows 4-7)."""
+    rows = [_theta_values(np.eye(len(BASIS)), np.array([end]), d)[:, 0] for end in (0.0, SPAN) for d in range(4)]
     return np.array(rows)
 
 
@@ -77,9 +83,9 @@ _HERMITE_INVERSE = np.linalg.inv(_HERMITE)
 def hermite_coefficients(start: np.ndarray, end: np.ndarray, h) -> np.ndarray:
     """(..., 8) the coefficients of the segment with states ``start`` and ``end`` (..., 4) (position [rad],
     velocity [rad/s], acceleration, jerk at tau = 0 and tau = h) and durations ``h`` [s], broadcastable
-    to start[..., 0]: the theta states (tau derivative d times (h / pi)^d) through the inverse of the
+    to start[..., 0]: the theta states (tau derivative d times (h / SPAN)^d) through the inverse of the
     Hermite matrix."""
-    scale = (np.asarray(h, dtype=float)[..., None] / np.pi) ** np.arange(4)
+    scale = (np.asarray(h, dtype=float)[..., None] / SPAN) ** np.arange(4)
     theta_states = np.concatenate((start * scale, end * scale), axis=-1)
     return theta_states @ _HERMITE_INVERSE.T
 
@@ -88,15 +94,16 @@ def values(coefficients: np.ndarray, h, tau: np.ndarray, order: int = 0) -> np.n
     """q^(order)(tau) [rad/s^order] at local times ``tau`` (..., P) [s] of segments (..., 8) of durations
     ``h`` (...) [s]: (..., P)."""
     h = np.asarray(h, dtype=float)
-    theta = np.pi * np.asarray(tau, dtype=float) / h[..., None]
-    return _theta_values(coefficients, theta, order) * (np.pi / h[..., None]) ** order
+    theta = SPAN * np.asarray(tau, dtype=float) / h[..., None]
+    return _theta_values(coefficients, theta, order) * (SPAN / h[..., None]) ** order
 
 
-def critical_angles(coefficients: np.ndarray, order: int) -> np.ndarray:
-    """(..., 2 ORDER + 2) angles in [0, pi] where d^order q / dtheta^order may take its extremes: both
-    ends, and the arguments of the roots of z^ORDER q^(order + 1) clipped to [0, pi] (a superset of
-    the critical points inside; where that polynomial vanishes entirely, the ends only)."""
-    polynomial = _complex(coefficients, order + 1)  # (..., 9): coefficients of z^0 .. z^8
+def zero_angles(coefficients: np.ndarray, order: int) -> np.ndarray:
+    """(..., 2 ORDER + 2) angles in [0, SPAN]: both ends, and the arguments of the roots of z^ORDER q^(order)
+    (q's ``order``-th theta derivative) clipped to [0, SPAN], a superset of the zeros of q^(order) inside (where
+    that polynomial vanishes entirely, the ends only). Extra angles (roots off the unit circle) do no harm
+    to the callers: they only add points at which the function is evaluated or split."""
+    polynomial = _complex(coefficients, order)  # (..., 9): coefficients of z^0 .. z^8
     shape = polynomial.shape[:-1]
     flat = polynomial.reshape(-1, polynomial.shape[-1])
     size = np.abs(flat).max(axis=1)
@@ -113,35 +120,139 @@ def critical_angles(coefficients: np.ndarray, order: int) -> np.ndarray:
     for row in np.flatnonzero(~leading & (size > 0)):  # a lower degree (no sin 4 theta): numpy strips it
         found = np.roots(flat[row, ::-1])
         roots[row, :len(found)] = found
-    angles = np.clip(np.angle(roots), 0.0, np.pi)
-    ends = np.broadcast_to(np.array([0.0, np.pi]), (flat.shape[0], 2))
+    angles = np.clip(np.angle(roots), 0.0, SPAN)
+    ends = np.broadcast_to(np.array([0.0, SPAN]), (flat.shape[0], 2))
     return np.concatenate((ends, angles), axis=1).reshape(*shape, 2 * ORDER + 2)
+
+
+def critical_angles(coefficients: np.ndarray, order: int) -> np.ndarray:
+    """(..., 2 ORDER + 2) angles in [0, SPAN] where d^order q / dtheta^order may take its extremes: both
+    ends, and the arguments of the roots of z^ORDER q^(order + 1) clipped to [0, SPAN] (``zero_angles``)."""
+    return zero_angles(coefficients, order + 1)
 
 
 def extremes(coefficients: np.ndarray, h, order: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """Exact (min, max) of q^(order) [rad/s^order] over segments (..., 8) of durations ``h`` (...) [s],
     each (...): q^(order) at ``critical_angles``."""
     angles = critical_angles(coefficients, order)
-    found = _theta_values(coefficients, angles, order) * (np.pi / np.asarray(h, dtype=float)[..., None]) ** order
+    found = _theta_values(coefficients, angles, order) * (SPAN / np.asarray(h, dtype=float)[..., None]) ** order
     return found.min(axis=-1), found.max(axis=-1)
 
 
+def segment_extrema(coefficients: np.ndarray, durations: np.ndarray, orders=(0,)):
+    """``kinematics.segment_extrema`` for trigonometric segments: where q^(d) may take its extremes on every
+    segment (normalised time s = theta / SPAN, ``critical_angles``) and its values there.
+
+    Args:
+        coefficients: (B, S, J, 8) each segment's coefficients in theta.
+        durations: (B, S) [s].
+        orders: the derivative orders d (0: position).
+
+    Returns:
+        (locations, values), each (len(orders), B, S, J, 2 ORDER + 2): s in [0, 1] and q^(d)(s h) [SI units].
+    """
+    h = np.asarray(durations, dtype=float)[..., None, None]  # (B, S, 1, 1)
+    locations, values = [], []
+    for order in orders:
+        angles = critical_angles(coefficients, order)
+        locations.append(angles / SPAN)
+        values.append(_theta_values(coefficients, angles, order) * (SPAN / h) ** order)
+    return np.stack(locations), np.stack(values)
+
+
+def segment_ranges(coefficients: np.ndarray, durations: np.ndarray, orders=(0,)):
+    """``kinematics.segment_ranges`` for trigonometric segments (B, S, J, 8), durations (B, S) [s]: the
+    exact (low, high) of q^(d) on every segment, each (len(orders), B, S, J)."""
+    _, values = segment_extrema(coefficients, durations, orders)
+    return values.min(axis=-1), values.max(axis=-1)
+
+
+def integral_abs(coefficients: np.ndarray, durations: np.ndarray, order: int) -> np.ndarray:
+    """(B, J) exact integral of |q^(order)(t)| dt over trajectories of segments (B, S, J, 8), durations
+    (B, S) [s], for ``order`` >= 1: on each segment q^(order) keeps its sign between its zeros
+    (``zero_angles``), and its antiderivative is q^(order - 1), so the integral is the sum of
+    |q^(order - 1)(b) - q^(order - 1)(a)| over consecutive breakpoints a < b."""
+    if order < 1:
+        raise ValueError(f"integral_abs needs a derivative order >= 1, got {order}")
+    h = np.asarray(durations, dtype=float)
+    breaks = np.sort(zero_angles(coefficients, order), axis=-1)
+    below = _theta_values(coefficients, breaks, order - 1) * (SPAN / h[..., None, None]) ** (order - 1)
+    return np.abs(np.diff(below, axis=-1)).sum(axis=-1).sum(axis=1)
+
+
 def _jerk_gram() -> np.ndarray:
-    """(8, 8) G with integral_0^pi (d^3 q / dtheta^3)^2 dtheta = a^T G a."""
+    """(8, 8) G with integral_0^SPAN (d^3 q / dtheta^3)^2 dtheta = a^T G a."""
     m = _FREQUENCIES[:, None] + _FREQUENCIES[None, :]
     with np.errstate(divide="ignore", invalid="ignore"):
-        integral = np.where(m == 0, np.pi, ((-1.0) ** m - 1) / (1j * m))
+        integral = np.where(m == 0, SPAN, (np.exp(1j * m * SPAN) - 1) / (1j * m))
     third = _COMPLEX * ((1j * _FREQUENCIES) ** 3)[:, None]  # (9, 8): a -> complex coefficients of q'''
     gram = third.T @ integral @ third
     return np.real((gram + gram.T) / 2)
 
 
-#: ``_jerk_gram``: integral_0^pi (d^3 q / dtheta^3)^2 dtheta = a^T JERK_GRAM a.
+#: ``_jerk_gram``: integral_0^SPAN (d^3 q / dtheta^3)^2 dtheta = a^T JERK_GRAM a.
 JERK_GRAM = _jerk_gram()
 
 
-def jerk_energy(coefficients: np.ndarray, h) -> np.ndarray:
+def segment_jerk_energy(coefficients: np.ndarray, h) -> np.ndarray:
     """integral_0^h q'''(tau)^2 dtau [rad^2/s^5] of segments (..., 8) of durations ``h`` (...) [s]:
-    (pi / h)^5 a^T ``JERK_GRAM`` a (dtau = h / pi dtheta, q''' = (pi / h)^3 d^3q/dtheta^3)."""
+    (SPAN / h)^5 a^T ``JERK_GRAM`` a (dtau = h / SPAN dtheta, q''' = (SPAN / h)^3 d^3q/dtheta^3)."""
     h = np.asarray(h, dtype=float)
-    return np.einsum("...i,ij,...j->...", coefficients, JERK_GRAM, coefficients) * (np.pi / h) ** 5
+    return np.einsum("...i,ij,...j->...", coefficients, JERK_GRAM, coefficients) * (SPAN / h) ** 5
+
+
+def jerk_energy(coefficients: np.ndarray, durations: np.ndarray) -> np.ndarray:
+    """``kinematics.jerk_energy`` for trigonometric segments (B, S, J, 8), durations (B, S) [s]: (B, J) the
+    integral of q'''(t)^2 dt over each trajectory [rad^2/s^5] (``segment_jerk_energy`` summed)."""
+    return segment_jerk_energy(coefficients, np.asarray(durations, dtype=float)[..., None]).sum(axis=1)
+
+
+def normalised_weights(s: np.ndarray, order: int) -> np.ndarray:
+    """(8, M) W with h^order q^(order)(s h) = sum_i W[i, m] a_i at normalised times s (M,) in [0, 1]: the
+    basis' theta derivative at theta = SPAN s times SPAN^order (the polynomial families' counterpart is
+    i! / (i - d)! s^(i - d)). The NLP writes its cuts and samples with them."""
+    theta = SPAN * np.asarray(s, dtype=float)
+    return _theta_values(np.eye(len(BASIS)), theta[None, :], order) * SPAN ** order
+
+
+#: (8, 8) G with integral_0^1 (h^3 q'''(s h))^2 ds = a^T G a: SPAN^5 ``JERK_GRAM``; the jerk energy of a
+#: segment is h^-5 times it.
+NORMALISED_JERK_GRAM = SPAN ** 5 * JERK_GRAM
+
+
+#: Grid points on [0, SPAN] at which ``trajectory_ranges`` bounds every segment before it solves for the exact
+#: extremes of those that can hold the trajectory's.
+GRID_POINTS = 33
+_GRID = np.linspace(0.0, SPAN, GRID_POINTS)
+_FREQUENCY_OF = np.array([k for k, _ in BASIS], dtype=float)
+
+
+def trajectory_ranges(coefficients: np.ndarray, durations: np.ndarray, orders=(0,)):
+    """Exact (low, high) of q^(d) over whole trajectories, each (len(orders), B, J), for segments (B, S, J, 8)
+    of durations (B, S) [s]: ``segment_ranges`` reduced over the segments, solved only where needed.
+
+    On each segment q^(d) is sampled at ``GRID_POINTS`` angles (spacing delta); between two neighbours it
+    exceeds their larger value by at most M delta^2 / 8, M >= max |d^2 q^(d) / dtheta^2| (sum_i k_i^(d + 2)
+    |a_i|, in theta units). The samples' extremes over all segments are reached, so a segment whose bound
+    does not pass them cannot hold the trajectory's extreme; only the others are solved exactly
+    (``critical_angles``). Exact, as ``segment_ranges`` is, and several times faster on many segments."""
+    h = np.asarray(durations, dtype=float)
+    delta = _GRID[1] - _GRID[0]
+    lows, highs = [], []
+    for order in orders:
+        scale = (SPAN / h)[..., None] ** order  # (B, S, 1): theta derivatives to time derivatives
+        grid = coefficients @ (_theta_values(np.eye(len(BASIS)), _GRID[None, :], order)) * scale[..., None]
+        slack = (np.abs(coefficients) @ _FREQUENCY_OF ** (order + 2)) * scale * delta ** 2 / 8  # (B, S, J)
+        top, bottom = grid.max(axis=-1), grid.min(axis=-1)  # (B, S, J)
+        high, low = top.max(axis=1), bottom.min(axis=1)  # (B, J): reached, so bounds from inside
+        open_high = top + slack > high[:, None, :]
+        open_low = bottom - slack < low[:, None, :]
+        chosen = open_high | open_low
+        if chosen.any():
+            b, s, j = np.nonzero(chosen)
+            found_low, found_high = extremes(coefficients[b, s, j], h[b, s], order)
+            np.maximum.at(high, (b, j), np.where(open_high[b, s, j], found_high, -np.inf))
+            np.minimum.at(low, (b, j), np.where(open_low[b, s, j], found_low, np.inf))
+        lows.append(low)
+        highs.append(high)
+    return np.stack(lows), np.stack(highs)

@@ -73,9 +73,23 @@ def dense_hybrid(via: np.ndarray, h: np.ndarray) -> np.ndarray:
     return result
 
 
+def trigonometric_derivative(a: np.ndarray, theta: float, h: np.ndarray, order: int) -> np.ndarray:
+    """q^(order) of trigonometric segments a (..., 8) at angle ``theta``, term by term: d^d/dtheta^d of cos k
+    theta is k^d cos(k theta + d pi / 2) (sin alike), times (SPAN / h)^d, SPAN = 3 pi / 4."""
+    terms = [(0, np.cos), (1, np.cos), (1, np.sin), (2, np.cos), (2, np.sin), (3, np.cos), (3, np.sin), (4, np.cos)]
+    basis = np.array([(1.0 if order == 0 else 0.0) if k == 0 else k ** order * f(k * theta + order * np.pi / 2)
+                      for k, f in terms])
+    return (a @ basis) * (0.75 * np.pi / h) ** order
+
+
 def continuity_jumps(pp: PiecewisePolynomial, order: int) -> np.ndarray:
     """|left - right| of the order-th derivative at every interior knot, (S-1, J)."""
     from planner.splines import derivative_coefficients, polyval
+    if pp.basis == "trigonometric":
+        h = pp.durations[:, None]
+        left = trigonometric_derivative(pp.coefficients[:-1], 0.75 * np.pi, h[:-1], order)
+        right = trigonometric_derivative(pp.coefficients[1:], 0.0, h[1:], order)
+        return np.abs(left - right)
     d = derivative_coefficients(pp.coefficients, order)
     left = polyval(d[:-1], pp.durations[:-1, None, None])[..., 0]
     right = d[1:, :, 0]
@@ -111,11 +125,12 @@ def test_quintic_matches_scipy(case):
         np.testing.assert_allclose(pp.evaluate(times, order), spline(times, nu=order), rtol=1e-7, atol=1e-6)
 
 
-CONTINUITY = {"cubic": 2, "hybrid": 2, "quintic": 4, "hermite7": 3}
-END_ZERO_ORDERS = {"cubic": (1, 2), "hybrid": (1, 2, 3), "quintic": (1, 2), "hermite7": (1, 2, 3)}
+CONTINUITY = {"cubic": 2, "hybrid": 2, "quintic": 4, "hermite7": 3, "trigonometric": 3}
+END_ZERO_ORDERS = {"cubic": (1, 2), "hybrid": (1, 2, 3), "quintic": (1, 2), "hermite7": (1, 2, 3),
+                   "trigonometric": (1, 2, 3)}
 
 
-@pytest.mark.parametrize("name", ["cubic", "hybrid", "quintic", "hermite7"])
+@pytest.mark.parametrize("name", ["cubic", "hybrid", "quintic", "hermite7", "trigonometric"])
 @given(data=via_and_durations("cubic"))
 def test_interpolates_continuous_and_rests(name, data):
     via, _ = data
@@ -300,7 +315,7 @@ def test_unknown_family():
         get_family("trig")
 
 
-@pytest.mark.parametrize("name", ["cubic", "hybrid", "quintic", "hermite7"])
+@pytest.mark.parametrize("name", ["cubic", "hybrid", "quintic", "hermite7", "trigonometric"])
 @settings(max_examples=30)
 @given(steps=arrays(float, (5, 2), elements=st.floats(-1.0, 1.0)),
        exponents=arrays(float, 8, elements=st.floats(-12.0, 12.0)))
@@ -321,14 +336,22 @@ def test_build_passes_its_via_points_or_refuses_by_name(name, steps, exponents):
         return
     c = trajectory.coefficients.astype(np.longdouble)
     h = trajectory.durations.astype(np.longdouble)
-    ends = np.einsum("sjd,sd->sj", c, h[:, None] ** np.arange(c.shape[2]))
-    starts = np.vstack((c[:, :, 0], ends[-1:]))
+    if trajectory.basis == "trigonometric":  # the basis at theta = 0 and 3 pi / 4, in long double
+        span = np.longdouble(3) * np.pi / 4
+        at_end = np.array([1, np.cos(span), np.sin(span), np.cos(2 * span), np.sin(2 * span), np.cos(3 * span),
+                           np.sin(3 * span), np.cos(4 * span)], dtype=np.longdouble)
+        first = c[:, :, 0] + c[:, :, 1] + c[:, :, 3] + c[:, :, 5] + c[:, :, 7]
+        ends = c @ at_end
+    else:
+        first = c[:, :, 0]
+        ends = np.einsum("sjd,sd->sj", c, h[:, None] ** np.arange(c.shape[2]))
+    starts = np.vstack((first, ends[-1:]))
     tolerance = 1e-6 * max(1.0, np.abs(via).max())  # a micro-radian per radian of the via-points
     assert np.abs(starts[trajectory.via_knots] - via).max() <= tolerance
-    assert np.abs(ends[:-1] - c[1:, :, 0]).max() <= tolerance
+    assert np.abs(ends[:-1] - first[1:]).max() <= tolerance
 
 
-@pytest.mark.parametrize("name", ["cubic", "hybrid", "quintic", "hermite7"])
+@pytest.mark.parametrize("name", ["cubic", "hybrid", "quintic", "hermite7", "trigonometric"])
 def test_a_duration_lost_in_its_knot_time_is_refused(name):
     """1e-9 s after 1e9 s leaves two knot times equal in floating point: no spline can be evaluated there."""
     via = np.cumsum(np.random.default_rng(1).uniform(-1, 1, (4, 2)), axis=0)
@@ -337,7 +360,7 @@ def test_a_duration_lost_in_its_knot_time_is_refused(name):
         get_family(name).build(via, durations)
 
 
-@pytest.mark.parametrize("name", ["cubic", "hybrid", "quintic", "hermite7"])
+@pytest.mark.parametrize("name", ["cubic", "hybrid", "quintic", "hermite7", "trigonometric"])
 def test_a_joint_resting_over_hundreds_of_via_points_builds(name):
     """The cubic spline's coefficients of a joint at rest decay geometrically along the segments, into
     subnormal numbers after about 560 of them: that is no motion lost, and the build was refused."""
@@ -360,7 +383,7 @@ def test_the_build_tolerance_scales_with_the_via_points():
     np.testing.assert_allclose(trajectory.evaluate(trajectory.via_times), via, atol=1e-6)
 
 
-@pytest.mark.parametrize("family", ["cubic", "hybrid", "quintic", "hermite7"])
+@pytest.mark.parametrize("family", ["cubic", "hybrid", "quintic", "hermite7", "trigonometric"])
 @pytest.mark.parametrize("durations", [np.full(4, 1e-300), np.full(4, 5e-324), np.full(4, 1e300),
                                        np.logspace(-150, 150, 4)])
 def test_durations_of_no_physical_size_are_refused_by_name_in_every_family(family, durations):
@@ -399,3 +422,63 @@ def test_sample_times_never_exceed_their_cap():
         except InputError as exc:
             assert f"above the cap of {MAX_SAMPLES:,}" in str(exc)
     assert len(trajectory.sample_times((MAX_SAMPLES - 2) / trajectory.total_time)) == MAX_SAMPLES - 1  # T on the grid
+
+
+# ------------------------------------------------------------------ bases: power and trigonometric
+
+@pytest.mark.parametrize("name", ["hybrid", "quintic", "trigonometric"])
+@settings(max_examples=20)
+@given(data=via_and_durations("cubic"), factor=st.floats(0.1, 10.0))
+def test_slowed_runs_the_same_path_factor_times_slower(name, data, factor):
+    """q_k(t) = q(t / k): positions at k t equal those at t, velocity / k, acceleration / k^2, jerk / k^3."""
+    via, _ = data
+    family = get_family(name)
+    h = np.random.default_rng(len(via)).uniform(0.3, 4.0, family.segment_count(len(via)))
+    trajectory = family.build(via, h)
+    slow = trajectory.slowed(factor)
+    assert slow.basis == trajectory.basis and slow.total_time == pytest.approx(factor * trajectory.total_time)
+    times = np.linspace(0.0, trajectory.total_time, 41)
+    states, slow_states = trajectory.states(times), slow.states(factor * times)
+    for order in range(4):
+        scale = np.abs(states[order]).max() + 1e-12
+        np.testing.assert_allclose(slow_states[order] * factor ** order, states[order], atol=1e-9 * scale)
+
+
+@pytest.mark.parametrize("name", ["hybrid", "hermite7", "trigonometric"])
+def test_segment_ends_are_the_values_at_each_segments_ends_and_bound_it(name, paper_via):
+    family = get_family(name)
+    h = np.random.default_rng(2).uniform(0.5, 4.0, family.segment_count(len(paper_via)))
+    trajectory = family.build(paper_via, h)
+    knots = trajectory.knot_times
+    for order in range(4):
+        start, end, bound = trajectory.segment_ends(order)
+        inside = 1e-12 * trajectory.durations
+        np.testing.assert_allclose(start, trajectory.evaluate(knots[:-1] + inside, order), rtol=1e-6, atol=1e-9)
+        np.testing.assert_allclose(end, trajectory.evaluate(knots[1:] - inside, order), rtol=1e-6, atol=1e-9)
+        dense = np.stack([trajectory.evaluate(np.linspace(a, b, 401)[1:-1], order)
+                          for a, b in zip(knots[:-1], knots[1:])])
+        assert np.all(np.abs(dense).max(axis=1) <= bound * (1 + 1e-12))
+
+
+def test_the_trigonometric_family_evaluates_its_basis_term_by_term(paper_via):
+    """``evaluate`` against the basis as written, theta = 3 pi tau / (4 h) on each segment."""
+    trajectory = get_family("trigonometric").build(paper_via, np.full(7, 2.5))
+    assert trajectory.basis == "trigonometric" and trajectory.coefficients.shape == (7, 6, 8)
+    times = np.random.default_rng(4).uniform(0.0, trajectory.total_time, 30)
+    segment = np.minimum((times // 2.5).astype(int), 6)
+    theta = 0.75 * np.pi * (times - 2.5 * segment) / 2.5
+    functions = np.stack([np.ones_like(theta), np.cos(theta), np.sin(theta), np.cos(2 * theta), np.sin(2 * theta),
+                          np.cos(3 * theta), np.sin(3 * theta), np.cos(4 * theta)], axis=1)  # (N, 8)
+    expected = np.einsum("nji,ni->nj", trajectory.coefficients[segment], functions)
+    np.testing.assert_allclose(trajectory.evaluate(times), expected, atol=1e-12)
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda: PiecewisePolynomial([1.0], np.zeros((1, 1, 8)), [0, 1], "chebyshev"), "basis must be one of"),
+    (lambda: PiecewisePolynomial([1.0], np.zeros((1, 1, 4)), [0, 1], "trigonometric"), r"\(segments, joints, 8\)"),
+    (lambda: PiecewisePolynomial([1e-300], np.ones((1, 1, 8)), [0, 1], "trigonometric"), "physical size"),
+    (lambda: PiecewisePolynomial([1e300], np.ones((1, 1, 8)), [0, 1], "trigonometric"), "physical size"),
+])
+def test_a_trajectory_of_an_unknown_basis_or_shape_is_refused(make, message):
+    with pytest.raises(InputError, match=message):
+        make()

@@ -27,9 +27,10 @@ from typing import Any
 
 import numpy as np
 
+from .. import trigonometric
 from ..limits import JointLimits
 from ..read_only import ReadOnlyArrays, freeze_arrays
-from ..splines import HYBRID_END, HYBRID_END_REFLECTED, SplineFamily, derivative_coefficients, hermite7
+from ..splines import HYBRID_END, HYBRID_END_REFLECTED, SplineFamily, derivative_coefficients, hermite7, segment_ends
 
 
 def _peak(coefficients: np.ndarray) -> float:
@@ -91,20 +92,44 @@ class SegmentBlock:
 
     Attributes:
         segments: (K,) segment indices.
-        coefficients: D + 1 expressions (K, J): the coefficients b_0 .. b_D of P(s).
+        coefficients: D + 1 expressions (K, J): the coefficients b_0 .. b_D of P(s); for the
+            ``trigonometric`` basis, the 8 coefficients a_i of ``trigonometric.BASIS`` (D = 7: the NLP bounds
+            them as it does a degree-7 polynomial's, by cuts).
         certified: derivative orders (0 = position) whose extremes inside these segments
             the NLP must bound by certificates; the others are bounded exactly by the
             formulation's own constraints.
+        basis: ``power`` or ``trigonometric`` (``splines.BASES``).
     """
 
     segments: np.ndarray
     coefficients: list
     certified: tuple[int, ...] = ()
+    basis: str = "power"
 
     @property
     def degree(self) -> int:
         """D, the polynomial degree of these segments."""
         return len(self.coefficients) - 1
+
+    def weights(self, s: np.ndarray, order: int) -> np.ndarray:
+        """(D + 1, M) W with h^order q^(order)(s h) = sum_i W[i, m] b_i at normalised times s (M,): i! / (i -
+        order)! s^(i - order) for polynomials, ``trigonometric.normalised_weights`` for the trigonometric basis."""
+        s = np.asarray(s, dtype=float)
+        if self.basis == "trigonometric":
+            return trigonometric.normalised_weights(s, order)
+        return np.array([factorial(i) / factorial(i - order) * s ** (i - order) if i >= order else np.zeros_like(s)
+                         for i in range(self.degree + 1)])
+
+    def jerk_gram(self) -> np.ndarray:
+        """(D + 1, D + 1) G with integral_0^1 (h^3 q^(3)(s h))^2 ds = b^T G b: for polynomials
+        i! / (i - 3)! k! / (k - 3)! / (i + k - 5) (i, k >= 3); ``trigonometric.NORMALISED_JERK_GRAM``."""
+        if self.basis == "trigonometric":
+            return trigonometric.NORMALISED_JERK_GRAM
+        falling = np.array([factorial(i) / factorial(i - 3) if i >= 3 else 0.0 for i in range(self.degree + 1)])
+        powers = np.arange(self.degree + 1)
+        with np.errstate(divide="ignore"):
+            hilbert = np.where(np.add.outer(powers, powers) >= 6, 1.0 / (np.add.outer(powers, powers) - 5.0), 0.0)
+        return np.outer(falling, falling) * hilbert
 
 
 @dataclass
@@ -431,6 +456,11 @@ class Hermite7Formulation(SplineFormulation):
     """
 
     limits_by_cuts = True
+    #: (8, 8) normalised end states to the segment's coefficients.
+    segment_map = HERMITE7_MAP
+    #: (g_1, g_2): on a segment of duration h, max |q''| <= g_1 max |q'| / h and max |jerk| <= g_2 max |q''| / h
+    #: (``_implied_rows``): Markov's inequality, 2 D^2 for the velocity (degree 6) and acceleration (degree 5).
+    derivative_gains = (72.0, 50.0)
 
     def build(self, h) -> SymbolicSpline:
         """The Hermite segments for symbolic durations ``h`` and the state variables."""
@@ -449,14 +479,19 @@ class Hermite7Formulation(SplineFormulation):
         powers = [1, duration, duration ** 2, duration ** 3]
         ends = [_columns(ca, via[:-1])] + [knots[d - 1][:-1, :] * powers[d] for d in range(1, 4)]
         ends += [_columns(ca, via[1:])] + [knots[d - 1][1:, :] * powers[d] for d in range(1, 4)]
-        coefficients = [sum(HERMITE7_MAP[i, c] * ends[c] for c in range(8) if HERMITE7_MAP[i, c] != 0)
-                        for i in range(8)]
-        coefficients[0] = _columns(ca, self.via_points[:-1])  # b_0: each segment starts at its via-point
+        mapping = self.segment_map
+        coefficients = [sum(mapping[i, c] * ends[c] for c in range(8) if mapping[i, c] != 0) for i in range(8)]
+        coefficients[0] = self._absolute(ca, coefficients[0])
         bounds = np.concatenate([self._scaled_bounds(order, inner) for order in range(1, 4)])
         bounds = np.minimum(bounds, self._from_rest(inner))
         bounds[:inner * joints] = np.where((self.resting_sides()[1:-1] != 0).T.ravel(), 0.0, bounds[:inner * joints])
         return SymbolicSpline(states, -bounds, bounds, ca.MX(0, 1), self._implied_rows(ca, knots, h),
-                              blocks=[SegmentBlock(np.arange(n - 1), coefficients, (0, 1, 2, 3))])
+                              blocks=[SegmentBlock(np.arange(n - 1), coefficients, (0, 1, 2, 3), self.family.basis)])
+
+    def _absolute(self, ca, constant):
+        """The constant coefficient (n - 1, J) of segments built from positions relative to the first via-point:
+        b_0 is the segment's start, its via-point, exactly."""
+        return _columns(ca, self.via_points[:-1])
 
     def _from_rest(self, count: int) -> np.ndarray:
         """(3 count J,) bounds of the scaled v, a, j states that a trajectory from rest to rest within a
@@ -475,10 +510,11 @@ class Hermite7Formulation(SplineFormulation):
         By Markov's inequality a polynomial p of degree D on an interval of length h has
         max |p'| <= 2 D^2 max |p| / h. On either segment beside a via-point, the velocity (degree 6)
         bounded by V bounds the acceleration there, |a| <= 72 V / h, and the acceleration (degree 5),
-        bounded by A or by 72 V / h, the jerk, |j| <= 50 A / h or 3600 V / h^2. Every feasible
-        trajectory meets them, so they cut nothing off; without them a knot state that no limit bounds
-        ran off (IPOPT's steps of norm 1e8) between the cuts of one round."""
+        bounded by A or by 72 V / h, the jerk, |j| <= 50 A / h or 3600 V / h^2 (``derivative_gains``).
+        Every feasible trajectory meets them, so they cut nothing off; without them a knot state that no
+        limit bounds ran off (IPOPT's steps of norm 1e8) between the cuts of one round."""
         limits = self.limits
+        first, second = self.derivative_gains
         rows: list = []
         if self.via_points.shape[0] < 3:  # one segment from rest to rest: no via-point state is free
             return rows
@@ -487,12 +523,12 @@ class Hermite7Formulation(SplineFormulation):
             velocity, acceleration, jerk = (float(limits.magnitudes[d, j]) for d in range(3))
             pairs = []
             if not np.isfinite(acceleration) and np.isfinite(velocity):
-                pairs.append((knots[1][1:-1, j], 72 * velocity, 1))
+                pairs.append((knots[1][1:-1, j], first * velocity, 1))
             if not np.isfinite(jerk):
                 if np.isfinite(acceleration):
-                    pairs.append((knots[2][1:-1, j], 50 * acceleration, 1))
+                    pairs.append((knots[2][1:-1, j], second * acceleration, 1))
                 elif np.isfinite(velocity):
-                    pairs.append((knots[2][1:-1, j], 3600 * velocity, 2))
+                    pairs.append((knots[2][1:-1, j], first * second * velocity, 2))
             for state, bound, power in pairs:
                 for side in (before, after):
                     rows.append((state * side ** power / bound, -1.0, 1.0))
@@ -503,10 +539,9 @@ class Hermite7Formulation(SplineFormulation):
         return self.resting_sides()
 
     def state_values(self, coefficients: np.ndarray, durations: np.ndarray) -> np.ndarray:
-        """Scaled v, a, j at the interior via-points (each segment's start), joint-major."""
-        interior = coefficients[1:]
-        return np.concatenate([(interior[:, :, order] * factorial(order) / self.scales.derivatives[order - 1]).T.ravel()
-                               for order in range(1, 4)])
+        """Scaled v, a, j at the interior via-points (each segment's start, ``segment_ends``), joint-major."""
+        return np.concatenate([(segment_ends(coefficients, durations, order, self.family.basis)[0][1:]
+                                / self.scales.derivatives[order - 1]).T.ravel() for order in range(1, 4)])
 
     def via_point_states(self, values: np.ndarray) -> np.ndarray:
         """(n, J, 3) the states the variables hold, unscaled, zero at both ends."""
@@ -515,5 +550,28 @@ class Hermite7Formulation(SplineFormulation):
         return np.concatenate((np.zeros((1, joints, 3)), inner, np.zeros((1, joints, 3))))
 
 
+#: (8, 8) normalised end states x (as ``HERMITE7_MAP``'s) to the coefficients a of a trigonometric segment.
+TRIGONOMETRIC_MAP = np.stack([trigonometric.hermite_coefficients(unit[:4], unit[4:], 1.0) for unit in np.eye(8)],
+                             axis=1)
+
+
+class TrigonometricFormulation(Hermite7Formulation):
+    """``trigonometric`` with free via-point states: ``Hermite7Formulation`` with Simon & Isik's segments
+    (``TRIGONOMETRIC_MAP``, basis ``trigonometric``), every extreme inside a segment bounded by cuts.
+
+    The implied rows' gains are Videnskii's inequality for a trigonometric polynomial t of degree n = 4
+    on an interval of length 2 omega = SPAN = 3 pi / 4 in theta: max |t'| <= 2 n^2 cot(omega / 2) max |t|
+    = 47.89 max |t|, so max |q''| <= 47.89 SPAN max |q'| / h (d theta / d tau = SPAN / h), and alike for
+    the jerk (the constant is reached: a linear program over the degree-4 trigonometric polynomials on a
+    fine grid of [0, 3 pi / 4] gives 47.891)."""
+
+    segment_map = TRIGONOMETRIC_MAP
+    derivative_gains = (2 * trigonometric.ORDER ** 2 / np.tan(trigonometric.SPAN / 4) * trigonometric.SPAN,) * 2
+
+    def _absolute(self, ca, constant):
+        """a_0 plus the first via-point: the constant basis function carries the offset."""
+        return constant + _per_joint(ca, self.via_points[0], self.via_points.shape[0] - 1)
+
+
 FORMULATIONS = {"cubic": CubicFormulation, "hybrid": CubicFormulation, "quintic": QuinticFormulation,
-                "hermite7": Hermite7Formulation}
+                "hermite7": Hermite7Formulation, "trigonometric": TrigonometricFormulation}

@@ -42,15 +42,16 @@ class _Model:
         """``_values`` of one chunk."""
         p = self.problem
         coefficients = p.family.batch_coefficients(p.via_points, h)
-        ratios, _ = batch_scale_factors(coefficients, h, p.limits)
+        ratios, _ = batch_scale_factors(coefficients, h, p.limits, p.family.basis)
         constraints = [(1.0 - ratios ** self.roots)[:, self.limited]]
         if self.lower.any() or self.upper.any():
-            low, high = position_range(coefficients, h)
+            low, high = position_range(coefficients, h, p.family.basis)
             constraints.append((low - p.limits.lower)[:, self.lower])
             constraints.append((p.limits.upper - high)[:, self.upper])
         objective = h.sum(axis=1)
         if p.uses_jerk_energy:
-            objective = p.weights[0] * objective + p.weights[1] * jerk_energy(coefficients, h).sum(axis=1)
+            energy = jerk_energy(coefficients, h, p.family.basis).sum(axis=1)
+            objective = p.weights[0] * objective + p.weights[1] * energy
         self.tracker.count(len(h))
         return objective, np.concatenate(constraints, axis=1)
 

@@ -293,7 +293,7 @@ class TimingNLP:
         family = problem.family
         reference = np.asarray(reference, dtype=float)
         coefficients = family.batch_coefficients(problem.via_points, reference[None])
-        self.scales = Scales.of(problem.limits, reference, max_abs(coefficients, reference[None])[0])
+        self.scales = Scales.of(problem.limits, reference, max_abs(coefficients, reference[None], family.basis)[0])
         # The optimum takes no longer than a feasible reference (where time alone is the objective).
         feasible = not problem.uses_jerk_energy and bool(problem.evaluate_durations(reference[None]).feasible[0])
         longest = float(reference.sum()) if feasible else np.inf
@@ -467,7 +467,7 @@ class TimingNLP:
             if not orders:
                 continue
             local = coefficients[None, block.segments, :, :block.degree + 1]
-            locations, values = segment_extrema(local, h[None, block.segments], orders)
+            locations, values = segment_extrema(local, h[None, block.segments], orders, self.problem.family.basis)
             for o, order in enumerate(orders):
                 s, f = locations[o, 0], values[o, 0]  # (K, J, C)
                 inside = (s > 1e-9) & (s < 1 - 1e-9)
@@ -587,12 +587,12 @@ def _settled_states(problem: TimingProblem, h: np.ndarray, states: np.ndarray) -
     durations = np.repeat(h[None], 2, axis=0)
     candidates = np.stack((states, family.rule_states(problem.via_points, h[None])[0]))
     coefficients = problem.coefficients(durations, candidates)
-    ratios, _ = batch_scale_factors(coefficients, durations, limits)
+    ratios, _ = batch_scale_factors(coefficients, durations, limits, family.basis)
     meets = np.logical_not(ratio_exceeded(ratios).any(axis=1))  # (2, J)
     if limits.has_position_range:
-        low, high = position_range(coefficients, durations)
+        low, high = position_range(coefficients, durations, family.basis)
         meets &= ~range_exceeded(limits.range_excess(low, high))
-    energy = jerk_energy(coefficients, durations)
+    energy = jerk_energy(coefficients, durations, family.basis)
     ruled = meets[1] & (~meets[0] | (energy[1] < energy[0]))
     settled = states.copy()
     settled[:, ruled] = candidates[1][:, ruled]
@@ -802,7 +802,10 @@ class _Program:
 
 
 def _certified_quantities(ca, certificates: list[Certificate], blocks: list[SegmentBlock], h) -> list:
-    """Coefficients of f(s) = q^(order)(s h) = h^-order P^(order)(s) of every certificate, power by power."""
+    """Coefficients of f(s) = q^(order)(s h) = h^-order P^(order)(s) of every certificate, power by power.
+
+    A trigonometric segment's f is no polynomial in s; its certificates are all cuts, which only evaluate f
+    at their centre, so its f is taken as the constant f(centre) (``SegmentBlock.weights``)."""
     f = [ca.MX.zeros(len(certificates), 1) for _ in range(max(c.degree for c in certificates) + 1)]
     for b, order in sorted({(c.block, c.order) for c in certificates}):
         chosen = [i for i, c in enumerate(certificates) if (c.block, c.order) == (b, order)]
@@ -815,6 +818,12 @@ def _certified_quantities(ca, certificates: list[Certificate], blocks: list[Segm
         # certificates x chosen entries to build, every round).
         spread = ca.DM(ca.Sparsity.triplet(len(certificates), len(chosen), list(chosen), list(range(len(chosen)))),
                        1.0)
+        if block.basis == "trigonometric":
+            weights = block.weights(np.array([certificates[i].centre for i in chosen]), order)  # (8, chosen)
+            at_centre = sum(ca.DM(weights[i]) * _pick(ca, ca.vec(block.coefficients[i]), flat)
+                            for i in range(len(block.coefficients)))
+            f[0] = f[0] + ca.mtimes(spread, at_centre * inverse)
+            continue
         for power in range(block.degree - order + 1):
             falling = factorial(power + order) / factorial(power)
             term = falling * _pick(ca, ca.vec(block.coefficients[power + order]), flat) * inverse
@@ -835,9 +844,7 @@ def _sampled_states(ca, block: SegmentBlock, h) -> tuple:
     s = np.arange(SAMPLES_PER_SEGMENT) / SAMPLES_PER_SEGMENT
     states = []
     for order in range(3):
-        basis = np.array([[factorial(i) / factorial(i - order) * s_m ** (i - order) if i >= order else 0.0
-                           for s_m in s] for i in range(block.degree + 1)])  # (D + 1, M)
-        values = ca.mtimes(stacked, ca.DM(basis))  # (K J, M): entry [k + K j, m]
+        values = ca.mtimes(stacked, ca.DM(block.weights(s, order)))  # (K J, M): entry [k + K j, m]
         if order:
             values = values * ca.repmat(inverse ** order, 1, SAMPLES_PER_SEGMENT)
         # [k + K j, m] -> (J, M K) with column m + M k
@@ -853,14 +860,15 @@ def _pick(ca, column, indices):
 
 
 def _jerk_energy(ca, blocks: list[SegmentBlock], h):
-    """Sum over segments and joints of the jerk energy, h^-5 times the integral of P'''(s)^2 over [0, 1]."""
+    """Sum over segments and joints of the jerk energy, h^-5 b^T G b (``SegmentBlock.jerk_gram``)."""
     total = 0
     for block in blocks:
-        if block.degree < 3:
+        gram = block.jerk_gram()
+        if not gram.any():
             continue
-        jerk = [block.coefficients[i] * (factorial(i) / factorial(i - 3)) for i in range(3, block.degree + 1)]
-        duration = ca.repmat(h[block.segments.tolist()], 1, jerk[0].shape[1])
-        integral = sum(jerk[i] * jerk[k] / (i + k + 1) for i in range(len(jerk)) for k in range(len(jerk)))
+        b = block.coefficients
+        duration = ca.repmat(h[block.segments.tolist()], 1, b[0].shape[1])
+        integral = sum(gram[i, k] * b[i] * b[k] for i in range(len(b)) for k in range(len(b)) if gram[i, k] != 0)
         total = total + ca.sum1(ca.sum2(integral / duration ** 5))
     return total
 
@@ -868,7 +876,7 @@ def _jerk_energy(ca, blocks: list[SegmentBlock], h):
 def _concurrent(problem: TimingProblem) -> bool:
     """Whether ``problem``'s starts are solved side by side: from ``CONCURRENT_SEGMENTS`` segments on, or
     ``CUT_CONCURRENT_SEGMENTS`` for a family of degree 5 and above (cuts bound its limits)."""
-    cut_only = problem.family.name in ("quintic", "hermite7")
+    cut_only = FORMULATIONS[problem.family.name].limits_by_cuts
     return problem.segment_count >= (CUT_CONCURRENT_SEGMENTS if cut_only else CONCURRENT_SEGMENTS)
 
 

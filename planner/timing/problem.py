@@ -305,12 +305,12 @@ class TimingProblem:
     def _figures(self, durations: np.ndarray, states: np.ndarray | None = None):
         """Coefficients, constraint ratios (B, 3, J) and time-scale factors (B,) of durations (B, S)."""
         coefficients = self._coefficients(durations, states)
-        return (coefficients, *batch_scale_factors(coefficients, durations, self.limits))
+        return (coefficients, *batch_scale_factors(coefficients, durations, self.limits, self.family.basis))
 
     def _position_excess(self, coefficients: np.ndarray, durations: np.ndarray) -> np.ndarray:
         if not self.limits.has_position_range:
             return np.zeros(len(durations))
-        low, high = position_range(coefficients, durations)
+        low, high = position_range(coefficients, durations, self.family.basis)
         return self.limits.range_excess(low, high).max(axis=1)
 
     @property
@@ -322,7 +322,7 @@ class TimingProblem:
         """(B,) total jerk energy when the objective uses it, else zeros."""
         if not self.uses_jerk_energy:
             return np.zeros(len(durations))
-        return jerk_energy(coefficients, durations).sum(axis=1)
+        return jerk_energy(coefficients, durations, self.family.basis).sum(axis=1)
 
     def evaluate(self, candidates) -> Evaluation:
         """Repair a batch of candidates (B, S) from the search box and evaluate them.
