@@ -224,14 +224,6 @@ def torque_slow_down(torque: np.ndarray, gravity: np.ndarray, limit: np.ndarray)
     return lowest, highest
 
 
-def slowed(trajectory: PiecewisePolynomial, factor: float) -> PiecewisePolynomial:
-    """``trajectory`` run ``factor`` times slower: durations times k, coefficient i divided by k^i
-    (q_k(tau) = q(tau / k) on each segment), the same path."""
-    powers = float(factor) ** -np.arange(trajectory.coefficients.shape[2])
-    return PiecewisePolynomial(trajectory.durations * factor, trajectory.coefficients * powers,
-                               trajectory.via_knots)
-
-
 def check_robot_limits(robot: Robot, trajectory: PiecewisePolynomial, torque_limit: np.ndarray | None,
                        tool_speed: float | None, tool_angular_speed: float | None,
                        times: np.ndarray | None = None) -> RobotLimitCheck:
@@ -435,7 +427,7 @@ def meet_robot_limits(robot: Robot, trajectory: PiecewisePolynomial, torque_limi
         factor = 1.0
     else:
         factor = min(factor * (1 + SLOW_DOWN_MARGIN), allowed)
-        trajectory = slowed(trajectory, factor)  # the same samples, slowed: the scaling law holds at each
+        trajectory = trajectory.slowed(factor)  # the same samples, slowed: the scaling law holds at each
         check = check_robot_limits(robot, trajectory, torque_limit, tool_speed, tool_angular_speed,
                                    np.minimum(check.times * factor, trajectory.total_time))
     return trajectory, RobotLimitOutcome(torque_limit, tool_speed, tool_angular_speed, factor, check, kinematic_total)

@@ -183,6 +183,13 @@ class PlanResult:
                 or not np.array_equal(distinct, family.via_knots(len(distinct))):
             raise InputError(f"a plan result's trajectory ({trajectory.segment_count} segments through "
                              f"{len(distinct)} distinct via-points) is not of its task's family {task.family!r}")
+        if (trajectory.width, trajectory.basis) != (family.width, family.basis):
+            raise InputError(f"a plan result's trajectory ({trajectory.basis} segments of {trajectory.width} "
+                             f"coefficients) is not of its task's family {task.family!r} ({family.basis} segments of "
+                             f"{family.width})")
+        if task.cartesian_waypoints is not None and task.path.mode == "linear" and self.path is None:
+            raise InputError(f"a plan result's task {task.name!r} follows straight lines, and the result has no "
+                             f"straight-path report")
         if (task.robot is None) != (self.robot is None):
             raise InputError(f"a plan result's task {task.name!r} has {'no' if task.robot is None else 'a'} robot, "
                              f"the result {'none' if self.robot is None else 'one'}")

@@ -46,9 +46,9 @@ class Run:
     result: OptimizationResult
 
 
-#: The families the comparison runs. ``hermite7``'s via-point states are optimized by the NLP stages
-#: (ours, and the sparse NLP); the population optimizers use its fixed rule (``parabola_states``).
-COMPARED_FAMILIES = ("cubic", "hybrid", "quintic", "hermite7")
+#: The families the comparison runs. ``hermite7``'s and ``trigonometric``'s via-point states are optimized by
+#: the NLP stages (ours, and the sparse NLP); the population optimizers use their fixed rule (``parabola_states``).
+COMPARED_FAMILIES = ("cubic", "hybrid", "quintic", "hermite7", "trigonometric")
 
 
 def run_all(*, quick: bool = False, seed: int = 0, families=COMPARED_FAMILIES,
@@ -207,8 +207,9 @@ def _families_block(best_of: dict) -> list[str]:
     header = ["family", "bounds [3, 5] s: best total time [s]", "against hybrid", "no bounds: best total time [s]",
               "against hybrid", "against the lower bound"]
     return ["## Families compared (the best feasible run of each)", "",
-            "`hermite7` is jerk-continuous, and the NLP stages choose its via-point velocities, accelerations",
-            "and jerks with the durations; the other families fix them from the durations. No trajectory of any",
+            "`hermite7` and `trigonometric` (Simon & Isik's segments) are jerk-continuous, and the NLP stages",
+            "choose their via-point velocities, accelerations and jerks with the durations (the other optimizers",
+            "take them from a fixed rule); the other families fix them from the durations. No trajectory of any",
             f"kind through Table II's via-points within Table III's limits takes less than {bound:.4f} s (a lower",
             "bound: each joint stops wherever it turns, and each of its moves between stops takes at least its",
             "bang-bang time; `planner.timing.lower_bound`).", "",

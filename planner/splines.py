@@ -76,9 +76,9 @@ class PiecewisePolynomial(ReadOnlyArrays):
                              f"{coefficients.shape}")
         knots = float_array("via_knots", self.via_knots)
         if (knots.ndim != 1 or not np.all(knots == np.round(knots)) or knots.min(initial=0) < 0
-                or knots.max(initial=0) > durations.shape[0]):
-            raise InputError(f"via_knots must be knot indices from 0 to {durations.shape[0]} (the segment count), "
-                             f"got {shown(self.via_knots)}")
+                or knots.max(initial=0) > durations.shape[0] or np.any(np.diff(knots) < 0)):
+            raise InputError(f"via_knots must be non-decreasing knot indices from 0 to {durations.shape[0]} (the "
+                             f"segment count; repeated via-points share a knot), got {shown(self.via_knots)}")
         with np.errstate(over="ignore"):
             total = durations.sum()
         if not np.isfinite(total):
@@ -335,6 +335,8 @@ class SplineFamily:
     free_states: bool = False
     #: The kind of segments it builds (``BASES``).
     basis: str = "power"
+    #: Coefficients per segment and joint that it builds (``PiecewisePolynomial.width``).
+    width: int = 0
 
     def segment_count(self, via_count: int) -> int:
         """How many durations the family needs for ``via_count`` via-points."""
@@ -463,6 +465,7 @@ class CubicFamily(SplineFamily):
     """
 
     name = "cubic"
+    width = 4
 
     def segment_count(self, via_count: int) -> int:
         """n + 1: the first and last chords have two segments each (a virtual knot between)."""
@@ -569,6 +572,7 @@ class HybridFamily(CubicFamily):
     """
 
     name = "hybrid"
+    width = 8
 
     def batch_coefficients(self, via_points: np.ndarray, durations: np.ndarray) -> np.ndarray:
         """The cubic spline's coefficients with the first and last segments replaced by 7th-order ones."""
@@ -595,6 +599,7 @@ class QuinticFamily(SplineFamily):
     """
 
     name = "quintic"
+    width = 6
 
     def segment_count(self, via_count: int) -> int:
         """n - 1: one segment per chord."""
@@ -655,6 +660,7 @@ class Hermite7Family(SplineFamily):
     """
 
     name = "hermite7"
+    width = 8
     free_states = True
     #: The segment between two states (..., 4) (position, velocity, acceleration, jerk) over durations h [s]:
     #: its coefficients (..., 8).

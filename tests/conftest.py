@@ -113,14 +113,16 @@ def assert_plan_holds(result) -> None:
     if bounds is not None:
         assert moving.min() >= bounds[0] * (1 - 1e-9) and moving.max() <= bounds[1] * (1 + 1e-9)
     document = coefficients_document(trajectory)
-    normalized = np.asarray(document["normalized_coefficients"])
+    trigonometric = trajectory.basis == "trigonometric"
+    normalized = np.asarray(document["coefficients" if trigonometric else "normalized_coefficients"])
     assert np.all(np.isfinite(trajectory.coefficients)) and np.all(np.isfinite(normalized))
     motion = float(np.ptp(result.via_points, axis=0).max())
     # A polynomial within +-1 on [0, 1] can have coefficients up to those of the shifted Chebyshev
-    # polynomial of its degree (48 for a cubic, 39424 for degree 7): a margin of 20 over that.
+    # polynomial of its degree (48 for a cubic, 39424 for degree 7): a margin of 20 over that. A trigonometric
+    # segment within +-1 on [0, 3 pi / 4]: its coefficients are at most 270 (a linear program on 4001 angles).
     degree = normalized.shape[-1] - 1
     chebyshev = np.polynomial.Polynomial(np.polynomial.chebyshev.cheb2poly([0] * degree + [1]))
-    largest = np.abs(chebyshev(np.polynomial.Polynomial([-1.0, 2.0])).coef).max()
+    largest = 270.0 if trigonometric else np.abs(chebyshev(np.polynomial.Polynomial([-1.0, 2.0])).coef).max()
     assert np.abs(normalized[..., 1:]).max() <= 20 * largest * motion
     assert_summary_figures(result, summary)
     # The trajectory passes through every via-point, in order, at its knot.

@@ -1,4 +1,5 @@
 import csv
+import dataclasses
 import re
 from pathlib import Path
 
@@ -12,7 +13,7 @@ from hypothesis.extra.numpy import arrays
 from scipy.spatial.transform import Rotation, Slerp
 
 from conftest import UR5_FAST, UR5_PICK_POSES
-from planner import IKError, TaskError
+from planner import IKError, InputError, TaskError
 from planner.cartesian_path import interpolate_pose, segment_deviation
 from planner.pipeline import plan
 from planner.progress import TerminalProgress
@@ -184,6 +185,9 @@ def test_linear_mode_keeps_the_tool_on_the_straight_segments(tmp_path):
     assert all(s["max_position_deviation_m"] <= 1e-3 for s in summary["segments"])
     # Only the task's waypoints are waypoints: the via-points hold them in order, inserted poses between.
     np.testing.assert_allclose(result.via_points[result.waypoint_via], np.array([s.q for s in result.ik]))
+    # Without its straight-path report the result would lose the tool-path check (sweep 27): refused.
+    with pytest.raises(InputError, match="follows straight lines, and the result has no straight-path report"):
+        dataclasses.replace(result, path=None)
 
 
 def test_joint_mode_reports_how_far_the_tool_strays(tmp_path):

@@ -19,7 +19,6 @@ from planner.dynamics import (
     check_times,
     gravity_torques,
     joint_torques,
-    slowed,
     tool_speeds,
     torque_limits,
     torque_slow_down,
@@ -169,7 +168,7 @@ def test_a_slowed_trajectory_runs_the_same_path(paper_limits=None):
     problem = TimingProblem(np.deg2rad(paper.VIA_POINTS_DEG), "hybrid", paper.paper_limits())
     trajectory = problem.trajectory(optimize(problem, "nlp").durations)
     k = 1.7
-    slower = slowed(trajectory, k)
+    slower = trajectory.slowed(k)
     times = np.linspace(0, trajectory.total_time, 301)
     assert np.isclose(slower.total_time, k * trajectory.total_time)
     for order in range(4):
@@ -210,7 +209,7 @@ def test_a_tool_speed_cap_is_met_exactly_and_timing_with_it_beats_slowing_down(p
     speed = independent_tool_speed(puma, trajectory, times)
     assert speed.max() <= 0.25 * (1 + 1e-4)
     assert speed.max() >= 0.25 * (1 - 1e-3)  # tight: the cap binds
-    faster = slowed(trajectory, 0.999)
+    faster = trajectory.slowed(0.999)
     assert independent_tool_speed(puma, faster, times * 0.999).max() > 0.25
     summary = result.summary()["robot_limits"]
     assert summary["tool_speed_ratio"] <= 1 and np.isclose(summary["slow_down"], met.slow_down)
@@ -268,7 +267,7 @@ def test_torque_limits_that_bind_are_met_at_points_the_planner_did_not_use(puma)
     ratio = np.abs(torque).max(axis=0) / (efforts / 2)
     assert ratio.max() <= 1 + 1e-3 and ratio.max() >= 0.99
     # Tight: 0.1 % faster breaks a torque limit (RNEA at the same points, run faster) or a kinematic one.
-    faster, every = slowed(trajectory, 0.999), np.concatenate((met.check.times, times))
+    faster, every = trajectory.slowed(0.999), np.concatenate((met.check.times, times))
     torque = joint_torques(puma, *(faster.evaluate(every * 0.999, order) for order in range(3)))
     assert (np.abs(torque) / (efforts / 2)).max() > 1 or kinematic_figures(faster).violations(result.limits)
     np.testing.assert_allclose(result.summary()["robot_limits"]["torque_ratio"],

@@ -41,7 +41,7 @@ def joint_tasks(draw) -> dict:
         low = draw(st.floats(0.01, 2.0))
         optimizer["bounds_s"] = [low, max(low * draw(st.floats(1.0, 50.0)), min_segment)]
     return {"version": 1, "waypoints": {"joints_deg": via.tolist()}, "limits": limits,
-            "trajectory": {"family": draw(st.sampled_from(["hybrid", "quintic", "cubic", "hermite7"])),
+            "trajectory": {"family": draw(st.sampled_from(["hybrid", "quintic", "cubic", "hermite7", "trigonometric"])),
                            "min_segment_s": min_segment},
             "optimizer": optimizer}
 

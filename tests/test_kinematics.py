@@ -354,7 +354,7 @@ def test_figures_of_a_still_joint_raise_no_floating_point_warning():
     via = np.deg2rad([[15, 10, 5], [15, 40, -20], [15, -5, 30], [15, 20, 10]])
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        for name in ("cubic", "hybrid", "quintic", "hermite7"):
+        for name in ("cubic", "hybrid", "quintic", "hermite7", "trigonometric"):
             family = get_family(name)
             kinematic_figures(family.build(via, np.full(family.segment_count(len(via)), 1.5)))
 
@@ -404,7 +404,7 @@ def test_figures_of_segments_of_rising_then_falling_degree_match_independent_one
             assert figures.mean_abs[order - 1, j] == pytest.approx(total / trajectory.total_time, rel=1e-6, abs=1e-9)
 
 
-@pytest.mark.parametrize("name", ["cubic", "hybrid", "quintic", "hermite7"])
+@pytest.mark.parametrize("name", ["cubic", "hybrid", "quintic", "hermite7", "trigonometric"])
 def test_extrema_with_a_via_point_at_the_zero_configuration_match_dense_sampling(name, paper_via):
     """Every joint at exactly 0 at one via-point (zero coefficients in patterns the root finder must not
     take for a lower degree)."""
@@ -461,7 +461,7 @@ def test_a_violation_names_its_value_and_limit_apart():
     assert jerk == "joint j jerk -0.000100000001 deg/s^3 exceeds its limit 0.0001 deg/s^3"
 
 
-@pytest.mark.parametrize("family", ["cubic", "hybrid", "quintic", "hermite7"])
+@pytest.mark.parametrize("family", ["cubic", "hybrid", "quintic", "hermite7", "trigonometric"])
 @given(data=st.data())
 def test_every_family_is_continuous_and_rests_at_both_ends(family, data):
     """``continuity_breaks`` finds nothing in any family's spline (the exact check calls it: no false alarm)."""

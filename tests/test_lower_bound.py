@@ -191,7 +191,7 @@ def test_pair_bounds_are_the_documented_links_of_each_joint_at_the_given_indices
     assert seen == expected
 
 
-@pytest.mark.parametrize("family", ["cubic", "hybrid", "quintic", "hermite7"])
+@pytest.mark.parametrize("family", ["cubic", "hybrid", "quintic", "hermite7", "trigonometric"])
 def test_no_feasible_trajectory_passes_two_via_points_faster_than_their_pair_bound(family):
     """A lower bound between any two via-points, for every family: a planned trajectory's via times."""
     rng = np.random.default_rng(5)

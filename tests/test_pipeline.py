@@ -561,11 +561,10 @@ def test_write_replaces_nothing_and_the_results_arrays_are_read_only(tmp_path):
 def test_a_trajectory_the_exact_check_fails_is_never_returned_or_written(tmp_path, monkeypatch):
     """Whatever the optimizer reported, the trajectory built is checked exactly once more: one that
     exceeds a limit is refused with the violation named, and nothing is written."""
-    from planner.dynamics import slowed
     from planner.timing import TimingProblem
 
     built = TimingProblem.trajectory
-    monkeypatch.setattr(TimingProblem, "trajectory", lambda self, *args: slowed(built(self, *args), 0.999))
+    monkeypatch.setattr(TimingProblem, "trajectory", lambda self, *args: built(self, *args).slowed(0.999))
     document = {"version": 1, "name": "faster", "waypoints": {"joints_deg": [[0, 0], [40, -20], [90, 10]]},
                 "limits": {"velocity_deg_s": [50, 50], "acceleration_deg_s2": [100, 100], "jerk_deg_s3": [500, 500]}}
     with pytest.raises(InfeasibleError, match=r"joint joint\d \w+ [\d.]+ deg/s\S* exceeds its limit") as caught:
@@ -851,6 +850,16 @@ def test_a_plan_result_refuses_a_task_or_parts_that_are_not_the_ones_planned():
         dataclasses.replace(result, task=task(trajectory={"family": "quintic"}))
     with pytest.raises(InputError, match="via-points are not its task 'other''s joint waypoints"):
         dataclasses.replace(result, task=task(joints_deg=[[0, 0], [40, -20], [90, 11]]))
+    # Another family of the same segment count (sweep 27): cubic for hybrid, trigonometric for hermite7.
+    cubic = planner.get_family("cubic").build(result.via_points, result.trajectory.durations)
+    with pytest.raises(InputError, match=r"\(power segments of 4 coefficients\) is not of its task's family "
+                                         r"'hybrid' \(power segments of 8\)"):
+        dataclasses.replace(result, trajectory=cubic)
+    smooth = plan(planner.make_task(name="c3", joints_deg=joints, limits=limits, trajectory={"family": "hermite7"}))
+    trigonometric = planner.get_family("trigonometric").build(smooth.via_points, smooth.trajectory.durations)
+    with pytest.raises(InputError, match=r"\(trigonometric segments of 8 coefficients\) is not of its task's "
+                                         r"family 'hermite7' \(power segments of 8\)"):
+        dataclasses.replace(smooth, trajectory=trigonometric)
     three = {key: values + [values[0]] for key, values in limits.items()}
     with pytest.raises(InputError, match="via-points are not its task 'other''s joint waypoints"):
         dataclasses.replace(result, task=task(joints_deg=[row + [0] for row in joints], limits=three))

@@ -16,7 +16,8 @@ FOREIGN = ["TIMING-SPEC", "PAPER-DATA", "seed-paper", "DESIGN.md", "shared/", ".
 
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):
-    """The quick reproduction of the hybrid and hermite7 families, written once: (folder, markdown, figure columns)."""
+    """The quick reproduction of the hybrid, hermite7 and trigonometric families, written once: (folder, markdown,
+    figure columns)."""
     folder = tmp_path_factory.mktemp("reproduce")
     drawn = []
     original = reproduce.plot_profile_columns
@@ -25,7 +26,7 @@ def report(tmp_path_factory):
             drawn.append((columns, kwargs))
             return original(columns, *args, **kwargs)
         patch.setattr(reproduce, "plot_profile_columns", spy)
-        reproduce.write_report(reproduce.run_all(quick=True, families=("hybrid", "hermite7")), folder)
+        reproduce.write_report(reproduce.run_all(quick=True, families=("hybrid", "hermite7", "trigonometric")), folder)
     return folder, (folder / "reproduction.md").read_text(), drawn
 
 
@@ -72,10 +73,11 @@ def test_figure_4_shows_the_paper_beside_ours(report):
     assert smooth.trajectory.total_time < ours.trajectory.total_time
 
 
-def test_the_families_table_puts_hermite7_below_hybrid(report):
+@pytest.mark.parametrize("family", ["hermite7", "trigonometric"])
+def test_the_families_table_puts_the_jerk_continuous_families_below_hybrid(report, family):
     _, text, _ = report
     table = text.split("## Families compared")[1].split("##")[0]
-    row = next(line for line in table.splitlines() if line.startswith("| hermite7 |"))
+    row = next(line for line in table.splitlines() if line.startswith(f"| {family} |"))
     cells = [cell.strip() for cell in row.strip("|").split("|")]
     assert cells[4].startswith("-") and cells[4].endswith("%"), row  # no bounds: faster than hybrid
     # Against the lower bound for any trajectory (13.6185 s): every family above it, by its own total.

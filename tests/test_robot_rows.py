@@ -147,7 +147,7 @@ def test_the_nlp_rows_derivatives_are_the_models_by_finite_differences(ur5):
     np.testing.assert_allclose(np.array(jacobian(at)), differences, rtol=1e-6, atol=1e-6)
 
 
-@pytest.mark.parametrize("family", ["cubic", "hybrid", "quintic", "hermite7"])
+@pytest.mark.parametrize("family", ["cubic", "hybrid", "quintic", "hermite7", "trigonometric"])
 def test_the_nlp_samples_are_the_splines_at_the_model_points(family):
     """The NLP's symbolic q, q', q'' at the samples (``_sampled_states``), column by column, equal
     ``spline_states`` at ``sample_points`` (the order the frozen model's numbers come in), evaluated
@@ -168,6 +168,6 @@ def test_the_nlp_samples_are_the_splines_at_the_model_points(family):
     for block in spline.blocks:
         evaluate = ca.Function("samples", [symbolic, spline.states], list(_sampled_states(ca, block, symbolic)))
         found = [np.array(x) for x in evaluate(h, formulation.state_values(coefficients, h))]
-        expected = spline_states(coefficients, h, *sample_points(block.segments))
+        expected = spline_states(coefficients, h, *sample_points(block.segments), problem.family.basis)
         for got, want in zip(found, expected):
             np.testing.assert_allclose(got, want.T, rtol=1e-9, atol=1e-9)

@@ -294,7 +294,8 @@ def test_bad_input_raises_clear_error(via, durations, message):
     (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate(np.zeros((2, 2))), r"got shape \(2, 2\)"),
     (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate([[0.1], [0.1, 0.2]]), "times must be num"),
     (lambda via: get_family("cubic").build(via, [True, True, True, True]), "durations must be numeric"),
-    (lambda via: PiecewisePolynomial(np.ones(1), np.zeros((1, 1, 4)), [0, 5]), "via_knots must be knot indices"),
+    (lambda via: PiecewisePolynomial(np.ones(1), np.zeros((1, 1, 4)), [0, 5]), "via_knots must be non-decreasing"),
+    (lambda via: PiecewisePolynomial(np.ones(2), np.zeros((2, 1, 4)), [1, 0]), "via_knots must be non-decreasing"),
     (lambda via: PiecewisePolynomial(np.ones(1), np.zeros((1, 1, 4)), ["a"]), "via_knots must be numeric"),
     (lambda via: PiecewisePolynomial(np.ones(1), np.zeros((1, 0, 4)), [0, 1]), r"each at least 1, got shape"),
     (lambda via: PiecewisePolynomial(np.zeros(0), np.zeros((0, 1, 4)), [0]), r"each at least 1, got shape"),
@@ -482,3 +483,11 @@ def test_the_trigonometric_family_evaluates_its_basis_term_by_term(paper_via):
 def test_a_trajectory_of_an_unknown_basis_or_shape_is_refused(make, message):
     with pytest.raises(InputError, match=message):
         make()
+
+
+@pytest.mark.parametrize("name", ["cubic", "hybrid", "quintic", "hermite7", "trigonometric"])
+def test_each_family_declares_the_width_and_basis_it_builds(name, paper_via):
+    """A plan result checks its trajectory's width and basis against its task's family's declaration."""
+    family = get_family(name)
+    trajectory = family.build(paper_via, np.full(family.segment_count(len(paper_via)), 2.0))
+    assert (trajectory.width, trajectory.basis) == (family.width, family.basis)

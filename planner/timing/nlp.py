@@ -395,7 +395,7 @@ class TimingNLP:
             settled = True
             if frozen is not None:  # the robot model was frozen at the previous round's trajectory
                 assert self.robot is not None
-                samples = spline_states(coefficients, h, *self._robot_points())
+                samples = spline_states(coefficients, h, *self._robot_points(), self.problem.family.basis)
                 gap, before = model_error(self.robot, frozen, *samples), gap
                 moved = float(np.abs(samples[0] - frozen.q).max())
                 log.debug("round %d: the robot model is off by %.3g of a limit, the positions moved %.3g rad",
@@ -429,7 +429,7 @@ class TimingNLP:
         """The robot model frozen at the spline (coefficients (S, J, D+1), durations (S,)); None without one."""
         if self.robot is None:
             return None
-        return freeze(self.robot, *spline_states(coefficients, h, *self._robot_points()))
+        return freeze(self.robot, *spline_states(coefficients, h, *self._robot_points(), self.problem.family.basis))
 
     # ------------------------------------------------------------------ certificates
 

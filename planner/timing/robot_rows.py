@@ -62,6 +62,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from .. import trigonometric
 from ..dynamics import joint_torques
 from ..read_only import ReadOnlyArrays, freeze_arrays
 from ..robot import Robot
@@ -149,12 +150,17 @@ def sample_points(segments: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def spline_states(coefficients: np.ndarray, durations: np.ndarray, segments: np.ndarray,
-                  s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(P, J) q, q', q'' of a spline (coefficients (S, J, D+1) in local time, durations (S,) [s]) at
-    normalised time ``s`` of ``segments`` (P,)."""
+                  s: np.ndarray, basis: str = "power") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(P, J) q, q', q'' of a spline (coefficients (S, J, C) in local time of the ``basis``, durations (S,)
+    [s]) at normalised time ``s`` of ``segments`` (P,)."""
     tau = (s * durations[segments])[:, None, None]
-    local = coefficients[segments]  # (P, J, D+1)
-    q, qd, qdd = (polyval(derivative_coefficients(local, order), tau)[..., 0] for order in range(3))
+    local = coefficients[segments]  # (P, J, C)
+    if basis == "trigonometric":
+        h = np.broadcast_to(durations[segments][:, None], local.shape[:2])
+        at = np.broadcast_to(tau, local.shape[:2] + (1,))
+        q, qd, qdd = (trigonometric.values(local, h, at, order)[..., 0] for order in range(3))
+    else:
+        q, qd, qdd = (polyval(derivative_coefficients(local, order), tau)[..., 0] for order in range(3))
     return q, qd, qdd
 
 
