@@ -48,7 +48,7 @@ import numpy as np
 import pinocchio as pin
 
 from .errors import IKError, InfeasibleError, TaskError
-from .ik import nearest_turn, solve_pose
+from .ik import nearest_turn, solve_pose, turn_variants
 from .read_only import ReadOnlyArrays, freeze_arrays
 from .robot import Robot
 from .splines import PiecewisePolynomial
@@ -358,16 +358,23 @@ def _where(poses: list[pin.SE3], segment: int, u: float) -> str:
 def _pose_between(robot: Robot, poses: list[pin.SE3], segment: int, low: float, high: float,
                   before: np.ndarray, after: np.ndarray, u: float | None = None) -> np.ndarray:
     """The configuration [rad] of the pose at fraction ``u`` (default: halfway) between fractions
-    ``low`` and ``high`` of ``segment``, whose neighbours are ``before`` and ``after``: IK from their
-    linear interpolation at ``u`` (the middle), on the 2 pi turns nearest it. Where that fails, or
-    lands farther from the middle than the neighbours are apart (another branch), IK from each
-    neighbour too, keeping the solution nearest the middle.
+    ``low`` and ``high`` of ``segment``, whose neighbours are ``before`` and ``after``: IK continuation
+    along the line from ``before`` (``continued``), the branch ``before`` is on. Where that fails (a
+    singularity or a range bound on the way), IK from their linear interpolation at ``u`` (the middle),
+    on the 2 pi turns nearest it; where that fails too, or lands farther from the middle than the
+    neighbours are apart (another branch), IK from each neighbour, keeping the solution nearest the
+    middle. IK from the middle alone could land on another branch where the motion between the
+    neighbours is large (a UR5 line whose continuous motion turns the shoulder by 60 deg: its inserted
+    poses alternated between branches, and the line was refused as a jump where none is).
 
     Raises:
         IKError: no configuration reaches the pose from the neighbours' (the line leaves the reachable
             workspace, or the branch followed runs into a range bound).
     """
     u = (low + high) / 2 if u is None else u
+    followed = continued(robot, poses, segment, before, low, u)
+    if followed is not None:
+        return followed
     target = interpolate_pose(poses[segment], poses[segment + 1], u)
     middle = before + (after - before) * (u - low) / (high - low)
     span = np.abs(after - before).max()
@@ -451,16 +458,36 @@ TRACK_STEPS = 32
 TRACK_STEP_RAD = np.deg2rad(5.0)
 
 
+def continued(robot: Robot, poses: list[pin.SE3], segment: int, q: np.ndarray, start: float,
+              end: float) -> np.ndarray | None:
+    """The configuration [rad] at fraction ``end`` of ``segment`` reached by IK continuation from ``q`` at
+    fraction ``start`` <= ``end``, or None where the line cannot be followed from there: the pose a step
+    further (at most 1 / ``TRACK_STEPS`` of the segment) is solved from the last configuration and taken on
+    the 2 pi turns nearest it; a step that misses the pose within the ranges, or moves a joint by more than
+    ``TRACK_STEP_RAD``, is halved, down to ``MIN_FRACTION`` (a singularity or a range bound on this branch)."""
+    q = np.asarray(q, dtype=float)
+    u, step = start, 1.0 / TRACK_STEPS
+    while u < end:
+        step = min(step, end - u)
+        target = interpolate_pose(poses[segment], poses[segment + 1], u + step)
+        solution = solve_pose(robot, target, q)
+        following = nearest_turn(robot, solution.q, q)
+        if solution.residual > 1e-9 or np.abs(following - q).max() > TRACK_STEP_RAD:
+            if step < MIN_FRACTION:
+                return None
+            step /= 2
+            continue
+        q, u, step = following, (end if step == end - u else u + step), min(2 * step, 1.0 / TRACK_STEPS)
+    return q
+
+
 def track_straight_lines(robot: Robot, poses: list[pin.SE3], first: np.ndarray,
                          kept: list[np.ndarray | None]) -> np.ndarray | None:
     """Waypoint configurations (n, J) [rad] joined by joint motions that follow the straight lines,
     from ``first`` [rad] at waypoint 0, or None where the lines cannot be followed from there.
 
-    IK continuation: along each segment, the pose a step further (at most 1 / ``TRACK_STEPS``
-    of it) is solved from the last configuration and taken on the 2 pi turns nearest it; a step
-    that misses the pose within the ranges, or moves a joint by more than ``TRACK_STEP_RAD``, is halved,
-    down to ``MIN_FRACTION`` (the line then runs into a singularity or a range bound from this
-    branch: None). The configuration reached at a waypoint is the next segment's start; where
+    IK continuation along each segment (``continued``; where it stops, the line runs into a singularity
+    or a range bound from this branch: None). The configuration reached at a waypoint is the next segment's start; where
     ``kept[i]`` holds one (a hinted waypoint's), the line must arrive at it (up to 2 pi turns), or
     None. The IK sequences of both branch rules pick each waypoint's solution by the joint motion
     between waypoints, and may pick one that the line from the previous waypoint does not reach.
@@ -468,18 +495,10 @@ def track_straight_lines(robot: Robot, poses: list[pin.SE3], first: np.ndarray,
     q = np.asarray(first, dtype=float)
     reached = [q]
     for segment in range(len(poses) - 1):
-        u, step = 0.0, 1.0 / TRACK_STEPS
-        while u < 1.0:
-            step = min(step, 1.0 - u)
-            target = interpolate_pose(poses[segment], poses[segment + 1], u + step)
-            solution = solve_pose(robot, target, q)
-            following = nearest_turn(robot, solution.q, q)
-            if solution.residual > 1e-9 or np.abs(following - q).max() > TRACK_STEP_RAD:
-                if step < MIN_FRACTION:
-                    return None
-                step /= 2
-                continue
-            q, u, step = following, u + step, min(2 * step, 1.0 / TRACK_STEPS)
+        found = continued(robot, poses, segment, q, 0.0, 1.0)
+        if found is None:
+            return None
+        q = found
         required = kept[segment + 1]
         if required is not None:
             if np.abs(nearest_turn(robot, q, required) - required).max() > JUMP_RAD:
@@ -487,3 +506,25 @@ def track_straight_lines(robot: Robot, poses: list[pin.SE3], first: np.ndarray,
             q = np.asarray(required, dtype=float)
         reached.append(q)
     return np.array(reached)
+
+
+#: Most 2 pi turn variants of the first configuration ``track_from_turns`` tries.
+TRACK_TURN_VARIANTS = 64
+
+
+def track_from_turns(robot: Robot, poses: list[pin.SE3], first: np.ndarray,
+                     kept: list[np.ndarray | None]) -> np.ndarray | None:
+    """``track_straight_lines`` from ``first``, or, where the lines cannot be followed from it and the first
+    waypoint has no kept (hinted) solution, from the first of its 2 pi turn variants within the ranges
+    (``ik.turn_variants``, at most ``TRACK_TURN_VARIANTS``) that follows them: a joint whose range spans
+    several turns can run into a bound from one turn and not from another (a UR5 line that turns wrist 3 by
+    270 deg, from 89 deg past its 360 deg bound, from -271 deg inside it). None where none does."""
+    reached = track_straight_lines(robot, poses, first, kept)
+    if reached is not None or kept[0] is not None:
+        return reached
+    for variant in turn_variants(robot, np.asarray(first, dtype=float), robot.limits)[:TRACK_TURN_VARIANTS]:
+        if np.abs(variant - first).max() > JUMP_RAD:  # ``first`` itself was tried
+            reached = track_straight_lines(robot, poses, variant, kept)
+            if reached is not None:
+                return reached
+    return None

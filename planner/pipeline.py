@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from .cartesian_path import JUMP_RAD, StraightPath, follow_straight_lines, tool_deviation, track_straight_lines
+from .cartesian_path import JUMP_RAD, StraightPath, follow_straight_lines, tool_deviation, track_from_turns
 from .concurrency import WarmWorkers, WorkerLost, map_forked
 from .dynamics import (
     RobotLimitOutcome,
@@ -393,7 +393,8 @@ def _follow_lines(robot: Robot, poses: list, sequences: list, hints: list, limit
     that the line from the previous waypoint does not reach (the joints would have to jump on it).
     On an arm without redundancy the motion along a line is one continuous curve from its start
     configuration (away from singularities), which IK continuation finds
-    (``track_straight_lines``): a sequence that it does not reach is tried only last, to name the
+    (``track_from_turns``, from the first waypoint's configuration or another 2 pi turn of it): a sequence
+    that it does not reach is tried only last, to name the
     failure, after each rule's sequence that it does reach and each tracked sequence (kept as
     ``tracked``, with its IK report from ``ik.described``). Hinted waypoints keep their solutions.
 
@@ -407,7 +408,7 @@ def _follow_lines(robot: Robot, poses: list, sequences: list, hints: list, limit
     jumping: list[tuple[np.ndarray, Any, str]] = []
     tracked: list[np.ndarray] = []
     for sequence, points, rule in sequences:
-        reached = None if robot.model.nv > 6 else track_straight_lines(
+        reached = None if robot.model.nv > 6 else track_from_turns(
             robot, poses, points[0], [q if hint is not None else None for q, hint in zip(points, hints)])
         if reached is None or np.abs(reached - points).max() <= JUMP_RAD:
             attempts.append((points, sequence, rule))
