@@ -803,3 +803,59 @@ def test_a_time_limit_that_ends_the_nlp_keeps_each_starts_last_solved_round(monk
     for label, start in cut.items():
         assert start.feasible and start.objective == pytest.approx(stopping[label], rel=1e-9)
     assert result.feasible and result.total_time == pytest.approx(min(stopping.values()), rel=1e-9)
+
+
+@pytest.mark.parametrize("family", ["cubic", "hybrid", "quintic", "hermite7", "trigonometric"])
+def test_the_nlp_jerk_energy_is_the_trajectorys(family):
+    """The time-jerk objective's term (``_jerk_energy``, from each block's Gram matrix) at a spline's durations
+    and knot states equals the jerk energy of the trajectory built (``kinematic_figures``, checked against
+    quadrature in test_kinematics)."""
+    import casadi as ca
+
+    from planner.timing.nlp import _jerk_energy
+
+    rng = np.random.default_rng(7)
+    via = np.cumsum(rng.normal(size=(6, 2)), axis=0)
+    limits = JointLimits.create(2, velocity=np.ones(2), acceleration=np.ones(2), jerk=np.ones(2))
+    problem = TimingProblem(via, family, limits)
+    h = rng.uniform(0.5, 2.0, problem.segment_count)
+    formulation = TimingNLP(problem, h).formulation
+    symbolic = ca.MX.sym("h", problem.segment_count)
+    spline = formulation.build(symbolic)
+    energy = ca.Function("energy", [symbolic, spline.states], [_jerk_energy(ca, spline.blocks, symbolic)])
+    coefficients = problem.coefficients(h[None])[0]
+    found = float(energy(h, formulation.state_values(coefficients, h)))
+    expected = kinematic_figures(problem.trajectory(h)).jerk_energy.sum()
+    assert found == pytest.approx(expected, rel=1e-9)
+
+
+def test_a_trigonometric_cut_holds_the_quantity_at_its_centre():
+    """A cut on a trigonometric segment (its f is the constant f(centre), ``_certified_quantities``) evaluates,
+    through the certificate's model, to q^(order) at the cut's place of the trajectory built."""
+    import casadi as ca
+
+    from planner.timing.nlp import Certificate, _certified_quantities
+
+    rng = np.random.default_rng(8)
+    via = np.cumsum(rng.normal(size=(5, 2)), axis=0)
+    limits = JointLimits.create(2, velocity=np.ones(2), acceleration=np.ones(2), jerk=np.ones(2))
+    problem = TimingProblem(via, "trigonometric", limits)
+    h = rng.uniform(0.5, 2.0, problem.segment_count)
+    formulation = TimingNLP(problem, h).formulation
+    symbolic = ca.MX.sym("h", problem.segment_count)
+    spline = formulation.build(symbolic)
+    cuts = [Certificate(0, row, joint, order, 1, 7 - order, centre=float(centre))
+            for row, joint, order, centre in zip(rng.integers(0, 4, 12), rng.integers(0, 2, 12),
+                                                 rng.integers(0, 4, 12), rng.uniform(0, 1, 12))]
+    f = _certified_quantities(ca, cuts, spline.blocks, symbolic)
+    weights = np.zeros((len(cuts), len(f)))  # each cut's model (evaluation at its centre), padded
+    for k, cut in enumerate(cuts):
+        weights[k, :cut.degree + 1] = cut.model()[0]
+    value = sum(ca.DM(weights[:, i]) * f[i] for i in range(len(f)))
+    evaluate = ca.Function("cuts", [symbolic, spline.states], [value])
+    found = np.array(evaluate(h, formulation.state_values(problem.coefficients(h[None])[0], h))).ravel()
+    trajectory = problem.trajectory(h)
+    for cut, got in zip(cuts, found):
+        time = trajectory.knot_times[cut.row] + cut.centre * h[cut.row]
+        expected = trajectory.evaluate([time], cut.order)[0, cut.joint]
+        assert got == pytest.approx(expected, rel=1e-9, abs=1e-9)
