@@ -64,7 +64,7 @@ class PiecewisePolynomial(ReadOnlyArrays):
     basis: str = "power"
 
     def __post_init__(self):
-        if self.basis not in BASES:
+        if not isinstance(self.basis, str) or self.basis not in BASES:
             raise InputError(f"basis must be one of {', '.join(BASES)}, got {shown(self.basis)}")
         durations = positive_durations("durations", self.durations)
         coefficients = finite_array("coefficients", self.coefficients, 3)

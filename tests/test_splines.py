@@ -476,6 +476,8 @@ def test_the_trigonometric_family_evaluates_its_basis_term_by_term(paper_via):
 
 @pytest.mark.parametrize("make, message", [
     (lambda: PiecewisePolynomial([1.0], np.zeros((1, 1, 8)), [0, 1], "chebyshev"), "basis must be one of"),
+    (lambda: PiecewisePolynomial([1.0], np.zeros((1, 1, 8)), [0, 1], np.array(["power", "power"])),
+     "basis must be one of"),
     (lambda: PiecewisePolynomial([1.0], np.zeros((1, 1, 4)), [0, 1], "trigonometric"), r"\(segments, joints, 8\)"),
     (lambda: PiecewisePolynomial([1e-300], np.ones((1, 1, 8)), [0, 1], "trigonometric"), "physical size"),
     (lambda: PiecewisePolynomial([1e300], np.ones((1, 1, 8)), [0, 1], "trigonometric"), "physical size"),
