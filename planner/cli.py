@@ -45,9 +45,10 @@ def _plan(args) -> int:
     task = load_task(args.task)  # a missing or malformed task is named before the output folder's state
     if args.out is None:  # beside other tasks' outputs and the reproduction's (out/reproduce), not over them
         stem = Path(args.task).stem
-        if stem in ("", ".", ".."):  # out/.. is the current folder, out/. every task's
+        if stem.startswith(".") or not stem:  # out/.. is the current folder, out/. every task's, out/.yaml hidden
             raise OutputError(f"the task file's name {shown(Path(args.task).name)} names no output folder "
-                              f"(out/{stem}): give one with --out")
+                              f"(out/{stem}{' would be hidden' if stem not in ('.', '..') else ''}): give one "
+                              f"with --out")
         args.out = str(Path("out") / stem)
     # The writers first: forked before the output folder is locked, they do not hold its lock.
     with output_writers() as writers, output_folder(args.out, force=args.force, files=OUTPUT_FILES) as staging:

@@ -339,10 +339,11 @@ def test_an_output_path_through_a_symbolic_link_and_dot_dot_goes_where_the_syste
     assert "outputs in link/../res/: coefficients.json" in capsys.readouterr().out
 
 
-@pytest.mark.parametrize("name", ["...yaml", "..yaml"])
+@pytest.mark.parametrize("name", ["...yaml", "..yaml", ".yaml", ".hidden.yaml"])
 def test_a_task_file_whose_name_makes_no_output_folder_is_refused(tmp_path, capsys, monkeypatch, name):
     """The default folder out/TASK of a task file named ``...yaml`` was out/.., the current folder (and
-    ``..yaml`` out/. , every task's): outputs landed beside the user's files (sweep 21)."""
+    ``..yaml`` out/. , every task's): outputs landed beside the user's files (sweep 21); ``.yaml`` wrote
+    to the hidden out/.yaml (sweep 27)."""
     monkeypatch.chdir(tmp_path)
     task = small_task(tmp_path).rename(tmp_path / name)
     assert main(["plan", str(task)]) == 2
