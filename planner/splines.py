@@ -168,18 +168,16 @@ class PiecewisePolynomial(ReadOnlyArrays):
         tau = times - knots[segment]
         values = np.empty((len(orders), len(times), self.joint_count))
         if self.basis == "trigonometric":
-            h = np.broadcast_to(self.durations[segment][:, None], (len(times), self.joint_count))
-            at = np.broadcast_to(tau[:, None, None], h.shape + (1,))
             for k, order in enumerate(orders):
-                values[k] = trigonometric.values(self.coefficients[segment], h, at, order)[..., 0]
+                values[k] = segment_values(self.coefficients[segment], self.durations[segment], tau, order,
+                                           self.basis)
             return values
         degree_of = self._degrees()[segment]
         for degree in np.unique(degree_of).tolist():
             chosen = degree_of == degree
             coefficients = self.coefficients[segment[chosen], :, :degree + 1]  # (M, J, degree + 1)
-            x = tau[chosen][:, None, None]
             for k, order in enumerate(orders):
-                values[k, chosen] = polyval(derivative_coefficients(coefficients, order), x)[..., 0]
+                values[k, chosen] = segment_values(coefficients, self.durations[segment[chosen]], tau[chosen], order)
         return values
 
     def sample_times(self, rate_hz: float) -> np.ndarray:
@@ -234,6 +232,18 @@ class PiecewisePolynomial(ReadOnlyArrays):
         return PiecewisePolynomial(self.durations * factor, coefficients, self.via_knots, self.basis)
 
 
+def segment_values(coefficients: np.ndarray, durations: np.ndarray, tau: np.ndarray, order: int,
+                   basis: str = "power") -> np.ndarray:
+    """(M, J) q^(order) [rad/s^order] of M segments' coefficients (M, J, C) in ``basis``, durations (M,) [s],
+    each at its own local time ``tau`` (M,) [s]: Horner's rule on the derivative's power coefficients, or
+    ``trigonometric.values``."""
+    if basis == "trigonometric":
+        h = np.broadcast_to(durations[:, None], coefficients.shape[:2])
+        at = np.broadcast_to(tau[:, None, None], coefficients.shape[:2] + (1,))
+        return trigonometric.values(coefficients, h, at, order)[..., 0]
+    return polyval(derivative_coefficients(coefficients, order), tau[:, None, None])[..., 0]
+
+
 def segment_ends(coefficients: np.ndarray, durations: np.ndarray, order: int,
                  basis: str = "power") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """q^(order) at the start and the end of every segment of ``coefficients`` (S, J, C), durations (S,) [s],
@@ -244,16 +254,13 @@ def segment_ends(coefficients: np.ndarray, durations: np.ndarray, order: int,
     derivative of cos k theta or sin k theta is at most k^d in size)."""
     c, h = coefficients, durations
     with np.errstate(over="ignore", invalid="ignore"):
+        end = segment_values(c, h, h, order, basis)
         if basis == "trigonometric":
-            local = np.broadcast_to(np.stack((np.zeros_like(h), h), axis=1)[:, None, :], c.shape[:2] + (2,))
-            ends = trigonometric.values(c, np.broadcast_to(h[:, None], c.shape[:2]), local, order)
             frequencies = np.array([k for k, _ in trigonometric.BASIS], dtype=float)
             bound = (trigonometric.SPAN / h[:, None]) ** order * (np.abs(c) @ frequencies ** order)
-            return ends[..., 0], ends[..., 1], bound
-        at_end = np.broadcast_to(h[:, None, None], c.shape[:2] + (1,))  # (S, J, 1): tau = h_k
+            return segment_values(c, h, np.zeros_like(h), order, basis), end, bound
         derivative = derivative_coefficients(c, order)  # (S, J, D + 1 - order)
-        return (derivative[..., 0], polyval(derivative, at_end)[..., 0],
-                polyval(np.abs(derivative), at_end)[..., 0])
+        return derivative[..., 0], end, polyval(np.abs(derivative), h[:, None, None])[..., 0]
 
 
 def _lost_segments(coefficients: np.ndarray, durations: np.ndarray, basis: str) -> np.ndarray:

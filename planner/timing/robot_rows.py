@@ -62,11 +62,10 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from .. import trigonometric
 from ..dynamics import joint_torques
 from ..read_only import ReadOnlyArrays, freeze_arrays
 from ..robot import Robot
-from ..splines import derivative_coefficients, polyval
+from ..splines import segment_values
 
 #: Torque and tool-speed samples per segment in the NLP (module docstring).
 SAMPLES_PER_SEGMENT = 8
@@ -153,14 +152,8 @@ def spline_states(coefficients: np.ndarray, durations: np.ndarray, segments: np.
                   s: np.ndarray, basis: str = "power") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(P, J) q, q', q'' of a spline (coefficients (S, J, C) in local time of the ``basis``, durations (S,)
     [s]) at normalised time ``s`` of ``segments`` (P,)."""
-    tau = (s * durations[segments])[:, None, None]
-    local = coefficients[segments]  # (P, J, C)
-    if basis == "trigonometric":
-        h = np.broadcast_to(durations[segments][:, None], local.shape[:2])
-        at = np.broadcast_to(tau, local.shape[:2] + (1,))
-        q, qd, qdd = (trigonometric.values(local, h, at, order)[..., 0] for order in range(3))
-    else:
-        q, qd, qdd = (polyval(derivative_coefficients(local, order), tau)[..., 0] for order in range(3))
+    h = durations[segments]
+    q, qd, qdd = (segment_values(coefficients[segments], h, s * h, order, basis) for order in range(3))
     return q, qd, qdd
 
 
