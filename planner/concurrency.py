@@ -66,11 +66,9 @@ def _fork_context():
 
 
 def map_forked(function: Callable[[Item], Result], items: Sequence[Item], workers: int | None = None) -> list[Result]:
-    """``[function(item) for item in items]``, the items dealt round-robin over ``workers`` processes.
-
-    The calling process takes the first share; each other share runs in a forked
-    child. ``workers`` defaults to ``core_count()``; 1, one item, or no ``fork``
-    on this platform runs everything here.
+    """``[function(item) for item in items]`` over ``workers`` processes: the calling one and forked
+    children, each taking the next item not yet taken until none is left (``_map``). ``workers``
+    defaults to ``core_count()``; 1, one item, or no ``fork`` on this platform runs everything here.
     """
     results = _map(function, items, workers)
     return [results[i] for i in range(len(items))]
@@ -79,8 +77,9 @@ def map_forked(function: Callable[[Item], Result], items: Sequence[Item], worker
 def map_forked_until(function: Callable[[Item, Callable[[Result], None]], Result], items: Sequence[Item],
                      workers: int | None, deadline: float) -> list[Result | None]:
     """``[function(item, report) for item in items]`` over ``workers`` processes, stopped at ``deadline``
-    (a ``time.monotonic()`` time [s]): every share runs in a child and the caller only waits; children not
-    done by then are ended (a library call cannot be stopped halfway in the calling process; a child can).
+    (a ``time.monotonic()`` time [s]): every item runs in a child, each child taking the next item not yet
+    taken (``map_forked``), and the caller only waits; children not done by then are ended (a library call
+    cannot be stopped halfway in the calling process; a child can).
 
     ``report(partial)``, which ``function`` may call as it goes, sends a result it could already
     return (the best so far): an item not done by the deadline gets its last one, or None if it sent
@@ -95,25 +94,23 @@ def map_forked_until(function: Callable[[Item, Callable[[Result], None]], Result
     children: list = []
     try:
         waiting = {}
-        for w in range(workers):
-            share = list(range(w, len(items), workers))
+        taken = context.Value("q", 0)  # the index of the next item to take, shared by the children
+        for _ in range(workers):
             receive, send = context.Pipe(duplex=False)
-            process = context.Process(target=_serve_reporting, args=(function, items, share, send, os.getpid()),
+            process = context.Process(target=_serve_reporting, args=(function, items, taken, send, os.getpid()),
                                       daemon=True)
             with _forking():  # started and listed in one step: the cleanup below ends every child
                 process.start()
                 children.append((process, receive))
             send.close()
-            waiting[receive] = (set(share), process)
+            waiting[receive] = process
         while waiting and (left := deadline - time.monotonic()) > 0:
             for ready in wait(list(waiting), timeout=left):
-                unfinished, process = waiting[ready]
-                done, index, payload = _message(ready, process)
-                results[index] = payload
-                if done:
-                    unfinished.discard(index)
-                    if not unfinished:
-                        del waiting[ready]
+                _, index, payload = _message(ready, waiting[ready])
+                if index == _ALL_TAKEN:
+                    del waiting[ready]
+                else:
+                    results[index] = payload
     finally:
         _end(children)
     return [results.get(i) for i in range(len(items))]
@@ -135,15 +132,21 @@ def _ignore(partial) -> None:
     """A ``report`` that keeps nothing (``map_forked_until`` without ``fork``)."""
 
 
-def _serve_reporting(function: Callable, items: Sequence, share: list[int], send, parent: int) -> None:
-    """A ``map_forked_until`` child's work: per item, ``(False, index, partial)`` for each ``report`` and
-    ``(True, index, result)`` at its end, or ``(True, None, exception)`` at the first failure, down ``send``."""
+#: The index a ``map_forked_until`` child sends once no item is left to take.
+_ALL_TAKEN = -1
+
+
+def _serve_reporting(function: Callable, items: Sequence, taken, send, parent: int) -> None:
+    """A ``map_forked_until`` child's work: per item it takes (``_next_item``), ``(False, index, partial)``
+    for each ``report`` and ``(True, index, result)`` at its end, then ``(True, _ALL_TAKEN, None)``, or
+    ``(True, None, exception)`` at the first failure, down ``send``."""
     _become_child(parent)
     try:
-        for index in share:
+        while (index := _next_item(taken, len(items))) is not None:
             def report(partial, index=index) -> None:
                 send.send((False, index, partial))
             send.send((True, index, function(items[index], report)))
+        send.send((True, _ALL_TAKEN, None))
     except BaseException as exc:  # noqa: BLE001 - every failure goes to the parent
         try:
             send.send((True, None, _crossing(exc)))
@@ -153,29 +156,48 @@ def _serve_reporting(function: Callable, items: Sequence, share: list[int], send
 
 
 def _map(function: Callable[[Item], Result], items: Sequence[Item], workers: int | None) -> dict[int, Result]:
-    """The results of ``map_forked`` by item index."""
+    """The results of ``map_forked`` by item index: each worker, the caller among them, takes the next item
+    not yet taken until none is left (items of unequal cost, such as the timing NLP's windows, keep every
+    core busy to the end; results do not depend on who computed them)."""
     workers = min(workers or core_count(), len(items))
     context = _fork_context()
     if context is None or workers <= 1:
         return {i: function(item) for i, item in enumerate(items)}
-    shares = [list(range(w, len(items), workers)) for w in range(workers)]
+    taken = context.Value("q", 0)  # the index of the next item to take, shared by the forked workers
     children: list = []
     results: dict[int, Result] = {}
     try:
-        for share in shares[1:]:
+        for _ in range(workers - 1):
             receive, send = context.Pipe(duplex=False)
-            process = context.Process(target=_serve, args=(function, [items[i] for i in share], send, os.getpid()),
+            process = context.Process(target=_serve_taking, args=(function, items, taken, send, os.getpid()),
                                       daemon=True)
             with _forking():  # started and listed in one step: the cleanup below ends every child
                 process.start()
                 children.append((process, receive))
             send.close()
-        results.update({i: function(items[i]) for i in shares[0]})
-        for share, (process, receive) in zip(shares[1:], children):
-            _collect(receive, share, process, results)
+        results.update(_taking(function, items, taken))
+        for process, receive in children:
+            results.update(_received(receive, process))
     finally:
         _end(children)
     return results
+
+
+def _taking(function: Callable[[Item], Result], items: Sequence[Item], taken) -> dict[int, Result]:
+    """``function`` of each item this worker takes (``_map``), by index, until none is left."""
+    done = {}
+    while (index := _next_item(taken, len(items))) is not None:
+        done[index] = function(items[index])
+    return done
+
+
+def _next_item(taken, count: int) -> int | None:
+    """The index of the next of ``count`` items not yet taken by any worker (``taken``: a shared counter), or
+    None where all are."""
+    with taken.get_lock():
+        index = taken.value
+        taken.value = index + 1
+    return index if index < count else None
 
 
 def call_in_child(function: Callable[[Item], Result], item: Item) -> Result:
@@ -268,13 +290,18 @@ def end_with(parent: int) -> None:
 
 def _collect(receive, share: list[int], process, results: dict) -> None:
     """A child's results for the items ``share`` into ``results``, or its exception raised here."""
+    results.update(zip(share, _received(receive, process)))
+
+
+def _received(receive, process):
+    """What a child sent down ``receive`` (``_run_and_send``), or its exception raised here."""
     try:
         failed, payload = receive.recv()
     except EOFError:
         raise _lost(process, "without a result") from None
     if failed:
         raise payload
-    results.update(zip(share, payload))
+    return payload
 
 
 def _lost(process, when: str) -> WorkerLost:
@@ -285,10 +312,17 @@ def _lost(process, when: str) -> WorkerLost:
     return WorkerLost(f"a worker process ended {when} (exit code {process.exitcode})")
 
 
+def _serve_taking(function: Callable, items: Sequence, taken, send, parent: int) -> None:
+    """A ``_map`` child's work: the results of the items it takes (``_taking``), by index, down ``send``
+    (``_run_and_send``)."""
+    _become_child(parent)
+    _run_and_send(lambda: _taking(function, items, taken), send)
+
+
 def _serve(function: Callable, items: list, send, parent: int) -> None:
     """A child's work: ``(False, results)`` or ``(True, exception)`` down ``send``."""
     _become_child(parent)
-    _run_and_send(function, items, send)
+    _run_and_send(lambda: [function(item) for item in items], send)
 
 
 def _become_child(parent: int) -> None:
@@ -302,11 +336,11 @@ def _become_child(parent: int) -> None:
     end_with(parent)
 
 
-def _run_and_send(function: Callable, items: list, send) -> None:
-    """``(False, [function(item) ...])``, or ``(True, exception)`` at the first failure, down ``send``."""
+def _run_and_send(work: Callable[[], object], send) -> None:
+    """``(False, work())``, or ``(True, exception)`` where it fails, down ``send``."""
     message: tuple[bool, object]
     try:
-        message = (False, [function(item) for item in items])
+        message = (False, work())
     except BaseException as exc:  # noqa: BLE001 - every failure goes to the parent
         message = (True, _crossing(exc))
     try:
@@ -425,7 +459,7 @@ def _serve_when_given(prepare: Callable[[], None] | None, jobs, send, parent: in
         function, items = pickle.loads(job)
     except Exception as exc:  # noqa: BLE001 - a share that cannot be read is that share's failure
         function, items = _raise, [exc]
-    _run_and_send(function, items, send)
+    _run_and_send(lambda: [function(item) for item in items], send)
 
 
 def _raise(exc: BaseException) -> None:

@@ -49,6 +49,7 @@ from .ik import (
 )
 from .kinematics import KinematicFigures, Violation, continuity_breaks, kinematic_figures, via_point_misses
 from .limits import (
+    FEASIBILITY_TOLERANCE,
     LIMITED,
     PROFILE_QUANTITIES,
     QUANTITIES,
@@ -149,6 +150,7 @@ class PlanResult:
         if self.ik is not None and waypoints is not None and len(self.ik) != len(waypoints):
             raise InputError(f"a plan result holds {len(self.ik)} IK solutions for {len(waypoints)} waypoints")
         self._check_task(via)
+        self._check_ik(via)
         object.__setattr__(self, "via_points", read_only(via))  # the summary reads it
         if self.measured_on and (self.path is not None or self.robot_limits is not None) \
                 and self.measured_on != trajectory_digest(self.trajectory):
@@ -172,6 +174,22 @@ class PlanResult:
             # each result its own copy: ``write`` adds the outputs' time to it, and copies by
             # ``dataclasses.replace`` shared the one dict
             object.__setattr__(self, name, _seconds_by_name(name, getattr(self, name), may_be_none))
+
+    def _check_ik(self, via: np.ndarray) -> None:
+        """Each IK solution is its waypoint's via-point (the straight path's ``waypoint_via`` places them among
+        inserted poses), in order."""
+        if self.ik is None:
+            return
+        places = self.path.waypoint_via if self.path is not None else np.arange(len(self.ik))
+        for waypoint, (solution, place) in enumerate(zip(self.ik, places)):
+            if not isinstance(solution, IKSolution):
+                raise InputError(f"a plan result's IK solution {waypoint} must be an IKSolution, not "
+                                 f"{type(solution).__name__}")
+            if not (0 <= place < len(via) and solution.q.shape == via[place].shape
+                    and np.allclose(solution.q, via[place], rtol=2 * FEASIBILITY_TOLERANCE,
+                                    atol=2 * FEASIBILITY_TOLERANCE)):  # as ``via_point_misses`` allows
+                raise InputError(f"a plan result's IK solution for waypoint {waypoint} is not its via-point "
+                                 f"{place}: the IK report belongs to another plan, or to another order")
 
     def _check_task(self, via: np.ndarray) -> None:
         """The task is the one planned: its family's segments, its robot, its joint waypoints and its limits'

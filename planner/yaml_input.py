@@ -25,6 +25,7 @@ import re
 import stat
 import sys
 from pathlib import Path
+from typing import Any, Callable
 
 import yaml
 
@@ -89,14 +90,16 @@ def _where(mark) -> str:
     return f"line {mark.line + 1}, column {mark.column + 1}"
 
 
-class _StrictLoader(yaml.SafeLoader):
-    """``yaml.SafeLoader`` that refuses, with a ``TaskError`` naming the key path and line: a key
-    twice in one mapping, nesting deeper than ``MAX_NESTING``, recursive aliases and documents
-    expanding to more than ``MAX_VALUES`` values. A scalar its constructor cannot convert
-    (``2001-13-45``, an integer of 5000 digits) is a ``yaml.YAMLError``."""
+class _StrictComposing(yaml.composer.Composer, yaml.constructor.SafeConstructor):
+    """What a strict loader adds to PyYAML's composer and constructor: it refuses, with a ``TaskError``
+    naming the key path and line, a key twice in one mapping, nesting deeper than ``MAX_NESTING``,
+    recursive aliases and documents expanding to more than ``MAX_VALUES`` values. A scalar its constructor
+    cannot convert (``2001-13-45``, an integer of 5000 digits) is a ``yaml.YAMLError``."""
 
-    def __init__(self, text: str):
-        super().__init__(text)
+    peek_event: Callable[[], Any]  # the parser's, PyYAML's or libyaml's (declared, not defined: not shadowed)
+    check_event: Callable[..., bool]
+
+    def _start(self) -> None:
         self._paths: list[str] = []         # key paths of the nodes being composed, outermost first
         self._sizes: dict[int, int] = {}    # id(node) -> values it expands to, once composed
         self._values = 0                    # values of the document so far, aliases expanded
@@ -181,6 +184,38 @@ class _StrictLoader(yaml.SafeLoader):
                                                                 f"({shown(str(exc), 60)})", node.start_mark) from None
 
 
+class _StrictLoader(_StrictComposing, yaml.SafeLoader):
+    """``yaml.SafeLoader``, strict (``_StrictComposing``): the one whose refusals a file's reader sees."""
+
+    def __init__(self, text: str):
+        super().__init__(text)
+        self._start()
+
+
+#: Texts that ``_FastStrictLoader`` reads: printable ASCII and line ends, without tabs and without the
+#: indicators of block scalars, tags, anchors, aliases, complex keys, directives and reserved characters. On
+#: random documents libyaml and PyYAML read differently texts with tabs (libyaml accepts a trailing one),
+#: byte-order marks inside the text (libyaml drops them, PyYAML keeps them in a key), block scalars whose header
+#: runs into a comment, and ``>`` after a quoted scalar in a flow (libyaml accepts both); of 60 000 random
+#: documents of the other characters, none.
+_LIBYAML_TEXT = re.compile("[\n" + re.escape("".join(chr(c) for c in range(0x20, 0x7F) if chr(c) not in "|>!&*?%@`"))
+                           + "]*")
+
+if yaml.__with_libyaml__:
+    class _FastStrictLoader(_StrictComposing, yaml.resolver.Resolver, yaml.cyaml.CParser):
+        """``_StrictLoader`` with libyaml's parser under PyYAML's own composer, constructor and resolver: the
+        same checks and data on the texts it takes (``_LIBYAML_TEXT``), parsed 5 times faster (a task of 1024
+        joint via-points: 0.05 s, not 0.24 s). ``_parse_yaml`` leaves refusals to ``_StrictLoader``: libyaml
+        words its errors, and places them in bytes, differently."""
+
+        def __init__(self, text: str):
+            yaml.cyaml.CParser.__init__(self, text)
+            yaml.composer.Composer.__init__(self)
+            yaml.constructor.SafeConstructor.__init__(self)
+            yaml.resolver.Resolver.__init__(self)
+            self._start()
+
+
 def _read_bytes(path: Path, what: str) -> bytes:
     """The bytes of a regular file of at most ``MAX_FILE_BYTES`` (a device, pipe or folder is refused
     before anything is read; the read itself is bounded)."""
@@ -213,7 +248,19 @@ def _decode(raw: bytes, path: Path, what: str) -> str:
 
 
 def _parse_yaml(text: str, path: Path):
-    """The plain data of one YAML document (see ``_StrictLoader`` for what is refused)."""
+    """The plain data of one YAML document (see ``_StrictComposing`` for what is refused): read with libyaml's
+    parser where PyYAML has it and the text is one both read alike (``_LIBYAML_TEXT``), else, or where that
+    fails (for its refusal), with PyYAML's own."""
+    if yaml.__with_libyaml__ and _LIBYAML_TEXT.fullmatch(text):
+        fast = None
+        try:
+            fast = _FastStrictLoader(text)
+            return fast.get_single_data()
+        except (yaml.YAMLError, PlannerError):
+            pass
+        finally:
+            if fast is not None:
+                fast.dispose()
     loader = None
     try:
         loader = _StrictLoader(text)  # checks every character first
@@ -282,6 +329,8 @@ def _core_float(loader: yaml.SafeLoader, node: yaml.ScalarNode) -> float:
 
 
 _use_core_schema(_StrictLoader)
+if yaml.__with_libyaml__:
+    _use_core_schema(_FastStrictLoader)
 
 
 def read_yaml(path, what: str = "YAML file"):

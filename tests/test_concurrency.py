@@ -1,3 +1,4 @@
+import functools
 import os
 import threading
 import time
@@ -17,9 +18,22 @@ def square_with_pid(x):
 def test_every_item_in_order_and_shared_over_processes():
     results = map_forked(square_with_pid, list(range(7)), workers=3)
     assert [value for value, _ in results] == [x * x for x in range(7)]
-    pids = [pid for _, pid in results]
-    assert pids[0::3] == [os.getpid()] * 3  # the caller's share: items 0, 3, 6
-    assert len(set(pids)) == 3 and os.getpid() not in pids[1::3] + pids[2::3]
+
+
+def square_with_pid_slowly_at_zero(x, seconds=1.0):
+    """``square_with_pid``, after ``seconds`` for item 0: while one worker does it, another takes the rest."""
+    if x == 0:
+        time.sleep(seconds)
+    return square_with_pid(x)
+
+
+def test_a_slow_item_does_not_hold_back_the_others():
+    """Each worker takes the next item not yet taken: while one works through a slow item, the other does
+    every other item (dealt out in fixed shares, it waited for the slow one's worker to do half of them)."""
+    results = map_forked(square_with_pid_slowly_at_zero, list(range(9)), workers=2)
+    assert [value for value, _ in results] == [x * x for x in range(9)]
+    slow, others = results[0][1], {pid for _, pid in results[1:]}
+    assert others.isdisjoint({slow}) and len(others) == 1 and os.getpid() in others | {slow}
 
 
 def test_one_worker_or_one_item_runs_here():
@@ -45,7 +59,8 @@ def test_with_other_threads_running_everything_runs_in_the_calling_thread():
     finally:
         stop.set()
         other.join()
-    assert {pid for _, pid in map_forked(square_with_pid, [1, 2], workers=2)} != {os.getpid()}  # alone again
+    alone_again = map_forked(functools.partial(square_with_pid_slowly_at_zero, seconds=0.3), [0, 1], workers=2)
+    assert len({pid for _, pid in alone_again}) == 2
 
 
 def abort_after_saying(text):
@@ -91,15 +106,17 @@ def test_errors_whose_constructors_take_fields_cross_whole():
     assert caught.value.name == "puma" and caught.value.known == ("ur5", "panda")
 
 
-def die_on_one(x):
-    if x == 1:
-        os._exit(3)
-    return x
+def die_in_a_child(caller):
+    """Wait in the caller (so that a child takes an item), end a child with exit code 3."""
+    if os.getpid() == caller:
+        time.sleep(0.3)
+        return caller
+    os._exit(3)
 
 
 def test_a_child_that_dies_is_an_error_not_a_hang():
     with pytest.raises(RuntimeError, match="exit code 3"):
-        map_forked(die_on_one, [0, 1], workers=2)
+        map_forked(die_in_a_child, [os.getpid()] * 2, workers=2)
 
 
 class Stop(BaseException):
@@ -165,7 +182,7 @@ def test_a_child_ended_by_the_parents_own_interruption_raises_that_interruption(
         interrupts.request(Stop())
     try:
         with pytest.raises(Stop):
-            map_forked(die_on_one, [0, 1], workers=2)
+            map_forked(die_in_a_child, [os.getpid()] * 2, workers=2)
     finally:
         interrupts.reset()
 
@@ -252,9 +269,9 @@ def test_warm_workers_raise_a_childs_error_and_end_unused_children():
 def test_warm_workers_fork_with_the_work_in_hand_when_it_does_not_pickle():
     offset = 10
     with WarmWorkers([None, None]) as workers:
-        results = workers.map(lambda x: (x + offset, os.getpid()), [1, 2, 3])
-    assert [value for value, _ in results] == [11, 12, 13]
-    assert results[0][1] == os.getpid() != results[1][1]  # map_forked: the caller's share first
+        results = workers.map(lambda x: (x + offset, square_with_pid_slowly_at_zero(x, 0.3)[1]), [0, 1, 2])
+    assert [value for value, _ in results] == [10, 11, 12]
+    assert os.getpid() in {pid for _, pid in results} and len({pid for _, pid in results}) == 2  # map_forked
 
 
 def test_concurrent_nlp_starts_match_serial_ones(monkeypatch):
@@ -307,8 +324,8 @@ def report_then_sleep(seconds, report):
 
 
 def test_a_deadline_ends_the_children_still_working():
-    """Every share runs in a child; results of children not done by the deadline are None, and those
-    children are ended (not left running)."""
+    """Every item runs in a child; results of items not done by the deadline are None, and the children
+    still working are ended (not left running)."""
     import time
 
     from planner.concurrency import map_forked_until
@@ -331,7 +348,7 @@ def test_a_deadline_ends_the_children_still_working():
     results = map_forked_until(sleep_then_pid, [0.0, 60.0, 0.0, 60.0], 2, start + 2.0)
     assert time.monotonic() - start < 30  # not the 60 s a child would sleep
     assert results[1] is None and results[3] is None
-    assert results[0] == results[2] != os.getpid()
+    assert os.getpid() not in {results[0], results[2]} and None not in {results[0], results[2]}
     assert live_children() - before == set()
     assert all(pid != os.getpid() for pid in map_forked_until(sleep_then_pid, [0.0, 0.0], 2, time.monotonic() + 30))
 
@@ -344,7 +361,7 @@ def test_a_deadline_keeps_the_last_result_each_unfinished_child_reported():
     from planner.concurrency import map_forked_until
     results = map_forked_until(report_then_sleep, [60.0, 0.0, 60.0], 3, time.monotonic() + 3.0)
     assert [r[0] for r in results] == ["second", "done", "second"]
-    assert len({r[1] for r in results}) == 3 and os.getpid() not in {r[1] for r in results}
+    assert results[0][1] != results[2][1] and os.getpid() not in {r[1] for r in results}
 
 
 def test_the_time_limit_ends_nlp_starts_that_run_over(monkeypatch):
@@ -407,3 +424,16 @@ def test_children_end_when_their_parent_is_killed_outright(tmp_path):
     else:
         os.kill(child, signal.SIGKILL)
         raise AssertionError("the child outlived its killed parent by 5 s")
+
+
+def sleep_at_zero_then_pid(x, report):
+    if x == 0:
+        time.sleep(1.0)
+    return os.getpid()
+
+
+def test_under_a_deadline_a_slow_item_does_not_hold_back_the_others():
+    """As ``map_forked``: while one child works through a slow item, the other takes every other one."""
+    results = map_forked_until(sleep_at_zero_then_pid, list(range(7)), 2, time.monotonic() + 60)
+    assert None not in results and os.getpid() not in results
+    assert len(set(results[1:])) == 1 and results[0] not in results[1:]

@@ -889,6 +889,12 @@ def test_a_plan_result_with_a_tool_path_refuses_another_trajectory():
     with pytest.raises(InputError, match="tool path and robot-limit figures were measured on the trajectory planned"):
         dataclasses.replace(result, trajectory=slower)
     assert dataclasses.replace(result, timings_s={}).figures.max_abs.tolist() == result.figures.max_abs.tolist()
+    # The IK report in another order, or with something else in it, is not the plan's (sweep 27).
+    with pytest.raises(InputError, match="IK solution for waypoint 0 is not its via-point 0: the IK report belongs"):
+        dataclasses.replace(result, ik=list(reversed(result.ik)))
+    with pytest.raises(InputError, match="IK solution 1 must be an IKSolution, not dict"):
+        dataclasses.replace(result, ik=[result.ik[0], {}])
+    assert dataclasses.replace(result, ik=list(result.ik)).ik == result.ik
 
 
 def test_task_limits_beyond_the_robots_own_are_said():

@@ -308,3 +308,33 @@ def test_a_path_that_is_not_utf8_is_refused_before_rerun_reads_it(tmp_path):
     os.rename(os.fsencode(path), odd)
     with pytest.raises(RecordingError, match=r"the path holds bytes that are not UTF-8"):
         read_recording(os.fsdecode(odd))
+
+
+def test_a_recording_that_fails_halfway_leaves_nothing_to_print(tmp_path):
+    """What was logged before a failure is dropped with the failure: left in Rerun's in-memory stream, it was
+    dropped later with a warning on stderr (where Rerun's log is not turned off), inside whatever output
+    came next (a test of the figure's quiet stderr failed on it)."""
+    import os
+    import subprocess
+    import sys
+    script = """
+import gc, sys
+import rerun  # before the planner turns Rerun's log off: its warnings reach stderr
+from planner import pipeline, recording
+result = pipeline.plan({"version": 1, "name": "drop", "waypoints": {"joints_deg": [[0, 0], [30, 10], [60, 0]]},
+                        "limits": {"velocity_deg_s": [50, 50], "acceleration_deg_s2": [100, 100],
+                                   "jerk_deg_s3": [500, 500]}})
+def broken(_):
+    raise RuntimeError("the summary fails")
+recording.plan_summary = broken
+try:
+    recording.write_recording(result, sys.argv[1])
+except RuntimeError:
+    pass
+gc.collect()
+"""
+    environment = {key: value for key, value in os.environ.items() if key != "RUST_LOG"}
+    done = subprocess.run([sys.executable, "-c", script, str(tmp_path / "r.rrd")], capture_output=True, text=True,
+                          env=environment, timeout=300)
+    assert done.returncode == 0 and done.stderr == "", done.stderr
+    assert not (tmp_path / "r.rrd").exists()

@@ -347,24 +347,29 @@ def test_urdf_meshes_must_be_regular_files(tmp_path, mesh, what):
             Robot.from_urdf(urdf, "arm")
 
 
-def test_a_missing_mesh_is_named_once_by_the_planner_and_rerun_stays_quiet(tmp_path, capfd):
+def test_a_missing_mesh_is_named_once_by_the_planner_and_rerun_stays_quiet(tmp_path):
     """Planned and recorded without it: the progress says which, summary.json lists it, and Rerun's
-    importer prints nothing on stderr (it warned in a coloured log line of its own)."""
+    importer prints nothing on stderr (it warned in a coloured log line of its own). The command runs in
+    a process of its own, as a user runs it: Rerun reads its log setting once, when first imported, which in
+    this test process an earlier test may have done without it."""
     import json
+    import os
+    import subprocess
+    import sys
 
     import yaml
 
-    from planner.cli import main
     urdf = tmp_path / "meshy.urdf"
     urdf.write_text(MESH_ARM.format(mesh="nothere.stl"))
     task = tmp_path / "task.yaml"
     task.write_text(yaml.safe_dump({"version": 1, "robot": {"urdf": str(urdf), "tool_frame": "arm"},
                                     "waypoints": {"joints_deg": [[0], [10]]},
                                     "limits": {"acceleration_deg_s2": [10], "jerk_deg_s3": [10]}}))
-    assert main(["plan", str(task), "--out", str(tmp_path / "out")]) == 0
-    captured = capfd.readouterr()
-    assert captured.err == "" and "1 mesh the URDF names is not found (nothing is drawn for it): nothere.stl" \
-        in captured.out
+    environment = {key: value for key, value in os.environ.items() if key != "RUST_LOG"}
+    done = subprocess.run([sys.executable, "-m", "planner.cli", "plan", str(task), "--out", str(tmp_path / "out")],
+                          capture_output=True, text=True, env=environment, timeout=600)
+    assert done.returncode == 0 and done.stderr == "", done.stderr
+    assert "1 mesh the URDF names is not found (nothing is drawn for it): nothere.stl" in done.stdout
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["robot"]["missing_meshes"] == ["nothere.stl"]
 
