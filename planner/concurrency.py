@@ -68,7 +68,8 @@ def _fork_context():
 def map_forked(function: Callable[[Item], Result], items: Sequence[Item], workers: int | None = None) -> list[Result]:
     """``[function(item) for item in items]`` over ``workers`` processes: the calling one and forked
     children, each taking the next item not yet taken until none is left (``_map``). ``workers``
-    defaults to ``core_count()``; 1, one item, or no ``fork`` on this platform runs everything here.
+    defaults to ``core_count()``; 1, one item, or no ``fork`` or shared counter on this platform
+    (``_shared_counter``) runs everything here.
     """
     results = _map(function, items, workers)
     return [results[i] for i in range(len(items))]
@@ -83,18 +84,19 @@ def map_forked_until(function: Callable[[Item, Callable[[Result], None]], Result
 
     ``report(partial)``, which ``function`` may call as it goes, sends a result it could already
     return (the best so far): an item not done by the deadline gets its last one, or None if it sent
-    none. Without ``fork`` (``_fork_context``), everything runs here, ``report`` does nothing and the
-    deadline is left to ``function`` (the timing NLP's IPOPT stops at the time limit by itself).
+    none. Without ``fork`` (``_fork_context``) or a shared counter (``_shared_counter``), everything runs
+    here, ``report`` does nothing and the deadline is left to ``function`` (the timing NLP's IPOPT stops at
+    the time limit by itself).
     """
     workers = min(workers or core_count(), len(items))
     context = _fork_context()
-    if context is None:
+    taken = _shared_counter(context)
+    if context is None or taken is None:
         return [function(item, _ignore) for item in items]
     results: dict[int, Result] = {}
     children: list = []
     try:
         waiting = {}
-        taken = context.Value("q", 0)  # the index of the next item to take, shared by the children
         for _ in range(workers):
             receive, send = context.Pipe(duplex=False)
             process = context.Process(target=_serve_reporting, args=(function, items, taken, send, os.getpid()),
@@ -161,9 +163,9 @@ def _map(function: Callable[[Item], Result], items: Sequence[Item], workers: int
     core busy to the end; results do not depend on who computed them)."""
     workers = min(workers or core_count(), len(items))
     context = _fork_context()
-    if context is None or workers <= 1:
+    taken = _shared_counter(context) if workers > 1 else None
+    if context is None or taken is None:
         return {i: function(item) for i, item in enumerate(items)}
-    taken = context.Value("q", 0)  # the index of the next item to take, shared by the forked workers
     children: list = []
     results: dict[int, Result] = {}
     try:
@@ -189,6 +191,18 @@ def _taking(function: Callable[[Item], Result], items: Sequence[Item], taken) ->
     while (index := _next_item(taken, len(items))) is not None:
         done[index] = function(items[index])
     return done
+
+
+def _shared_counter(context):
+    """A counter shared by the processes forked from here (``context``'s ``Value`` with its lock), at 0: the
+    index of the next item to take; None without ``fork``, or where the platform has no working semaphores
+    (``sem_open``: some containers and serverless hosts), so that the work runs in the calling process."""
+    if context is None:
+        return None
+    try:
+        return context.Value("q", 0)
+    except (ImportError, OSError):
+        return None
 
 
 def _next_item(taken, count: int) -> int | None:

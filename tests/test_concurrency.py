@@ -437,3 +437,15 @@ def test_under_a_deadline_a_slow_item_does_not_hold_back_the_others():
     results = map_forked_until(sleep_at_zero_then_pid, list(range(7)), 2, time.monotonic() + 60)
     assert None not in results and os.getpid() not in results
     assert len(set(results[1:])) == 1 and results[0] not in results[1:]
+
+
+def test_without_semaphores_the_work_runs_here(monkeypatch):
+    """Where the platform has no working ``sem_open`` (some containers and serverless hosts), a shared
+    counter cannot be made: the work runs in the calling process, to the same results, rather than failing."""
+    import multiprocessing.context
+
+    def no_semaphores(*args, **kwargs):
+        raise ImportError("This platform lacks a functioning sem_open implementation")
+    monkeypatch.setattr(multiprocessing.context.BaseContext, "Value", no_semaphores)
+    assert map_forked(square_with_pid, [1, 2, 3], workers=2) == [(x * x, os.getpid()) for x in (1, 2, 3)]
+    assert map_forked_until(sleep_at_zero_then_pid, [1, 2], 2, time.monotonic() + 60) == [os.getpid()] * 2
