@@ -13,7 +13,7 @@ What a recording holds (timeline ``time``, in seconds):
   between waypoints) and ``scene/inserted_poses`` (poses ``linear`` mode inserted: small blue points,
   unlabelled), in the robot's root frame.
 * ``profiles/{position,velocity,acceleration,jerk}/<joint>``: time series in degrees (at the sample
-  rate, or at ``PROFILE_SAMPLES`` evenly spaced times in all when that is fewer), each joint
+  rate, or at ``PROFILE_SAMPLES`` + 1 evenly spaced times in all when that is fewer), each joint
   in one colour (``JOINT_COLOURS``, matplotlib's default cycle as in ``profiles.png``) and named as
   the joint in every plot; ``.../limits/<joint>/{upper,lower}``: its limits as thin dashed lines
   (NaN gaps) of the same colour and name, so that the legend lists each joint once and no limit;
@@ -67,8 +67,9 @@ FORMAT = "planner-recording/v2"
 _PROFILES = tuple(q.name for q in PROFILE_QUANTITIES)
 _LIMIT_FIELDS = ("lower", "upper", *QUANTITIES)
 _SAMPLES = "/trajectory/samples"
-#: Most times at which the profile plots are logged (per series): zoomed to a tenth of a 20-minute
-#: plan, still about one value per pixel; ``trajectory/samples`` keeps every sample.
+#: Intervals between the times at which the profile plots are logged (per series: at most this many + 1
+#: times, both ends included): zoomed to a tenth of a 20-minute plan, still about one value per pixel;
+#: ``trajectory/samples`` keeps every sample.
 PROFILE_SAMPLES = 50_000
 _DEFINITION = "/trajectory/definition"
 _END = "/trajectory/end"
