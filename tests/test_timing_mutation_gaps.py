@@ -170,3 +170,54 @@ def test_chunks_keep_the_same_best_as_one_batch_among_equal_objectives(monkeypat
     assert chunked.evaluations == whole.evaluations == 3
     np.testing.assert_array_equal(whole.best_durations, candidates[0])
     np.testing.assert_array_equal(chunked.best_durations, candidates[0])
+
+
+def test_a_batch_that_is_not_two_dimensional_goes_to_the_problem_whole():
+    """One candidate (S,) is evaluated as a batch of one; a (2, 1, S) batch is refused by the problem's own
+    check, naming it (not an error of the tracker's chunking)."""
+    from planner.errors import InputError
+    from planner.timing.result import SearchTracker
+
+    problem = _paper_problem()
+    tracker = SearchTracker(problem)
+    evaluation = tracker.evaluate(np.ones(problem.segment_count))
+    assert evaluation.objective.shape == (1,) and tracker.evaluations == 1
+    np.testing.assert_array_equal(tracker.best_durations, evaluation.durations[0])
+    with pytest.raises(InputError, match="candidates must have 1 dimension"):
+        tracker.evaluate(np.ones((2, 1, problem.segment_count)))
+
+
+def test_the_history_keeps_every_iteration():
+    """The convergence history has one entry per iteration, however many (Cuckoo Search allows 10,000)."""
+    from planner.timing.result import SearchTracker
+
+    problem = _paper_problem()
+    tracker = SearchTracker(problem)
+    evaluation = tracker.evaluate(np.ones((1, problem.segment_count)))
+    for _ in range(1500):
+        tracker.end_iteration()
+    assert tracker.history == [evaluation.objective[0]] * 1500
+    assert len(tracker.result("test", "", None).history) == 1500
+
+
+# ---------------------------------------------------------------- lower_bound.py
+
+def test_links_reach_thirty_two_via_points_without_a_patched_window():
+    """The existing chain tests cut ``WINDOW`` to 3; here it is the module's own 32, on a 39-point walk whose
+    longest chain needs a link 17 to 32 via-points long (with pairs at most 16 apart the bound is 0.6 % lower):
+    the bound is the longest chain over every pair at most 32 apart (and every pair from the first and to the
+    last), by ``test_lower_bound``'s independent reading of the module docstring."""
+    from test_lower_bound import _longest_chain
+
+    from planner.timing.lower_bound import time_lower_bound
+
+    rng = np.random.default_rng(68)
+    n, joints = int(rng.integers(20, 60)), int(rng.integers(1, 4))
+    steps = rng.choice([-2, -1, 0, 1, 2], (n, joints)) * 0.25 * rng.uniform(0.05, 1, (1, joints))
+    via = np.cumsum(steps, axis=0)
+    limits = JointLimits.create(joints, velocity=rng.uniform(0.3, 3, joints), acceleration=rng.uniform(0.3, 3, joints),
+                                jerk=rng.uniform(0.1, 10, joints))
+    assert (n, joints) == (39, 2)
+    bound = time_lower_bound(via, limits)
+    assert bound == pytest.approx(_longest_chain(via, limits, 32), rel=1e-12)
+    assert bound > _longest_chain(via, limits, 16) * (1 + 1e-3)
