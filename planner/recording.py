@@ -250,11 +250,30 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
     """Write ``result`` (a ``PlanResult``) as a Rerun recording at ``path`` (flushed and closed)."""
     _quiet_rerun_logs()  # the planner names missing meshes itself (summary.json, progress)
     import rerun as rr
+
+    rec = rr.RecordingStream(APPLICATION_ID, recording_id=f"{result.task.name}-{id(result)}")
+    # Into memory, then one ordinary write: Rerun's own file sink left the plan hanging for good (deaf
+    # to Ctrl-C and SIGTERM) in a flush after its writer thread died of a full disk.
+    stream = rr.binary_stream(recording=rec)
+    try:
+        _log_plan(rec, result, rate_hz or result.task.sample_rate_hz)
+        encoded = stream.read(flush=True, flush_timeout_sec=FLUSH_TIMEOUT_S)
+    except BaseException:  # what was logged is read and dropped: left in the stream, Rerun warned on stderr
+        stream.read(flush=True, flush_timeout_sec=FLUSH_TIMEOUT_S)  # when it dropped it, in a later output
+        rec.disconnect()
+        raise
+    rec.disconnect()
+    Path(path).write_bytes(encoded or b"")
+
+
+def _log_plan(rec, result, rate_hz: float) -> None:
+    """Log everything a recording of ``result`` holds (module docstring) into ``rec``, sampled at ``rate_hz``
+    [Hz], the end marker last."""
+    import rerun as rr
     import rerun.blueprint as rrb
 
     trajectory: PiecewisePolynomial = result.trajectory
     names = result.joint_names
-    rate_hz = rate_hz or result.task.sample_rate_hz
     times = trajectory.sample_times(rate_hz)
     time_index = _time_index(times)
     if len(times) > PROFILE_SAMPLES:  # what a person looks at: the trajectory's own values, at fewer times
@@ -264,72 +283,60 @@ def write_recording(result, path: Path, *, rate_hz: float | None = None) -> None
         plot_times, plot_values = times, trajectory.states(times)
         positions = plot_values[0]
     plot_index = _time_index(plot_times)
-    rec = rr.RecordingStream(APPLICATION_ID, recording_id=f"{result.task.name}-{id(result)}")
-    # Into memory, then one ordinary write: Rerun's own file sink left the plan hanging for good (deaf
-    # to Ctrl-C and SIGTERM) in a flush after its writer thread died of a full disk.
-    stream = rr.binary_stream(recording=rec)
-    try:
-        rec.send_recording_name(result.task.name)
-        rec.send_property("plan", rr.AnyValues(
-            task=result.task.name, family=result.task.family, optimizer=optimizer_name(result),
-            total_time_s=trajectory.total_time, feasible=bool(result.feasible),
-            joints=", ".join(names)))
-        definition = trajectory_definition(trajectory, result.limits, names, getattr(result, "via_points", None))
-        rec.log(_DEFINITION, rr.AnyValues(planner_definition=json.dumps(definition)), static=True)
-        rec.send_columns(_SAMPLES, indexes=time_index, columns=rr.Scalars.columns(scalars=positions))
-        rec.log(_SUMMARY, rr.TextDocument(plan_summary(result), media_type=rr.MediaType.MARKDOWN), static=True)
+    rec.send_recording_name(result.task.name)
+    rec.send_property("plan", rr.AnyValues(
+        task=result.task.name, family=result.task.family, optimizer=optimizer_name(result),
+        total_time_s=trajectory.total_time, feasible=bool(result.feasible),
+        joints=", ".join(names)))
+    definition = trajectory_definition(trajectory, result.limits, names, getattr(result, "via_points", None))
+    rec.log(_DEFINITION, rr.AnyValues(planner_definition=json.dumps(definition)), static=True)
+    rec.send_columns(_SAMPLES, indexes=time_index, columns=rr.Scalars.columns(scalars=positions))
+    rec.log(_SUMMARY, rr.TextDocument(plan_summary(result), media_type=rr.MediaType.MARKDOWN), static=True)
 
-        # Each joint's series carries its name and colour in every plot; its limits and via-points share both,
-        # so the legend holds one entry per joint (entries of one name are merged) and never lists the limits.
-        bounds = [(result.limits.lower, result.limits.upper)] + [(-m, m) for m in result.limits.magnitudes]
-        for k, profile in enumerate(_PROFILES):
-            for j, name in enumerate(names):
-                _log_profile(rec, profile, name, joint_colour(j), plot_index, np.rad2deg(plot_values[k, :, j]),
-                             np.rad2deg((bounds[k][0][j], bounds[k][1][j])), trajectory.total_time)
-        torque_limit = getattr(result, "torque_limit", None)
-        if torque_limit is not None:  # a fifth plot, in N m, as the others
-            torques = result.torques_at(plot_times)
-            for j, name in enumerate(names):
-                _log_profile(rec, "torque", name, joint_colour(j), plot_index, torques[:, j],
-                             (-torque_limit[j], torque_limit[j]), trajectory.total_time)
-        via_index = _time_index(trajectory.via_times)
-        via_positions = trajectory.evaluate(trajectory.via_times)
+    # Each joint's series carries its name and colour in every plot; its limits and via-points share both,
+    # so the legend holds one entry per joint (entries of one name are merged) and never lists the limits.
+    bounds = [(result.limits.lower, result.limits.upper)] + [(-m, m) for m in result.limits.magnitudes]
+    for k, profile in enumerate(_PROFILES):
         for j, name in enumerate(names):
-            entity = _entity("profiles", "position", "via_points", name)
-            rec.log(entity, rr.SeriesPoints(names=name, colors=[joint_colour(j)], marker_sizes=3.0), static=True)
-            rec.send_columns(entity, indexes=via_index,
-                             columns=rr.Scalars.columns(scalars=np.rad2deg(via_positions[:, j])))
+            _log_profile(rec, profile, name, joint_colour(j), plot_index, np.rad2deg(plot_values[k, :, j]),
+                         np.rad2deg((bounds[k][0][j], bounds[k][1][j])), trajectory.total_time)
+    torque_limit = getattr(result, "torque_limit", None)
+    if torque_limit is not None:  # a fifth plot, in N m, as the others
+        torques = result.torques_at(plot_times)
+        for j, name in enumerate(names):
+            _log_profile(rec, "torque", name, joint_colour(j), plot_index, torques[:, j],
+                         (-torque_limit[j], torque_limit[j]), trajectory.total_time)
+    via_index = _time_index(trajectory.via_times)
+    via_positions = trajectory.evaluate(trajectory.via_times)
+    for j, name in enumerate(names):
+        entity = _entity("profiles", "position", "via_points", name)
+        rec.log(entity, rr.SeriesPoints(names=name, colors=[joint_colour(j)], marker_sizes=3.0), static=True)
+        rec.send_columns(entity, indexes=via_index,
+                         columns=rr.Scalars.columns(scalars=np.rad2deg(via_positions[:, j])))
 
-        plots = [rrb.TimeSeriesView(origin=f"/profiles/{p}", name=f"{p} [{unit}]",
-                                    plot_legend=rrb.PlotLegend(corner="LeftTop", visible=k == 0),
-                                    axis_y=rrb.ScalarAxis(
-                                        range=_position_range(plot_values[0], result.limits) if k == 0
-                                        else _symmetric_range(np.rad2deg(plot_values[k]),
-                                                              np.rad2deg(result.limits.magnitudes[k - 1]))))
-                 for k, (p, unit) in enumerate(zip(_PROFILES, DEGREE_UNITS))]
-        if torque_limit is not None:
-            plots.append(rrb.TimeSeriesView(origin="/profiles/torque", name="torque [N m]",
-                                            plot_legend=rrb.PlotLegend(corner="LeftTop", visible=False),
-                                            axis_y=rrb.ScalarAxis(range=_symmetric_range(torques, torque_limit))))
-        summary = rrb.TextDocumentView(origin=_SUMMARY, name="summary")
-        if result.robot is not None:
-            eye = _log_robot(rec, result, times, positions)
-            robot_view = rrb.Spatial3DView(origin="/", name="robot", contents=[  # visual geometry only
-                "/robot/**", "/scene/**", "- /robot/**/collision_geometries/**"], eye_controls=eye)
-            layout = rrb.Horizontal(rrb.Vertical(robot_view, summary, row_shares=[3, 1]), rrb.Vertical(*plots),
-                                    column_shares=[1, 1])
-        else:
-            layout = rrb.Horizontal(summary, rrb.Vertical(*plots), column_shares=[1, 2])
-        rec.send_blueprint(rrb.Blueprint(layout, collapse_panels=True))
-        rec.flush()  # everything above is in the stream before the end marker
-        rec.log(_END, rr.AnyValues(planner_end=json.dumps(end_marker(times, rate_hz))), static=True)
-        encoded = stream.read(flush=True, flush_timeout_sec=FLUSH_TIMEOUT_S)
-    except BaseException:  # what was logged is read and dropped: left in the stream, Rerun warned on stderr
-        stream.read(flush=True, flush_timeout_sec=FLUSH_TIMEOUT_S)  # when it dropped it, in a later output
-        rec.disconnect()
-        raise
-    rec.disconnect()
-    Path(path).write_bytes(encoded or b"")
+    plots = [rrb.TimeSeriesView(origin=f"/profiles/{p}", name=f"{p} [{unit}]",
+                                plot_legend=rrb.PlotLegend(corner="LeftTop", visible=k == 0),
+                                axis_y=rrb.ScalarAxis(
+                                    range=_position_range(plot_values[0], result.limits) if k == 0
+                                    else _symmetric_range(np.rad2deg(plot_values[k]),
+                                                          np.rad2deg(result.limits.magnitudes[k - 1]))))
+             for k, (p, unit) in enumerate(zip(_PROFILES, DEGREE_UNITS))]
+    if torque_limit is not None:
+        plots.append(rrb.TimeSeriesView(origin="/profiles/torque", name="torque [N m]",
+                                        plot_legend=rrb.PlotLegend(corner="LeftTop", visible=False),
+                                        axis_y=rrb.ScalarAxis(range=_symmetric_range(torques, torque_limit))))
+    summary = rrb.TextDocumentView(origin=_SUMMARY, name="summary")
+    if result.robot is not None:
+        eye = _log_robot(rec, result, times, positions)
+        robot_view = rrb.Spatial3DView(origin="/", name="robot", contents=[  # visual geometry only
+            "/robot/**", "/scene/**", "- /robot/**/collision_geometries/**"], eye_controls=eye)
+        layout = rrb.Horizontal(rrb.Vertical(robot_view, summary, row_shares=[3, 1]), rrb.Vertical(*plots),
+                                column_shares=[1, 1])
+    else:
+        layout = rrb.Horizontal(summary, rrb.Vertical(*plots), column_shares=[1, 2])
+    rec.send_blueprint(rrb.Blueprint(layout, collapse_panels=True))
+    rec.flush()  # everything above is in the stream before the end marker
+    rec.log(_END, rr.AnyValues(planner_end=json.dumps(end_marker(times, rate_hz))), static=True)
 
 
 @contextmanager

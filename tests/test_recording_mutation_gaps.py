@@ -86,9 +86,9 @@ def test_the_largest_ratio_is_the_largest_of_every_joint_and_order(tmp_path, cap
     assert f"largest ratio {expected:.4f}," in capsys.readouterr().out
 
 
-def write_like_planner(path, result, times, positions, *, definition=None, rate_hz=RATE_HZ):
+def write_like_planner(path, result, times, positions, *, definition=None, rate_hz=RATE_HZ, end=None):
     """A recording laid out as the planner's (definition, samples at ``times``, end marker at ``rate_hz``)
-    written with Rerun directly; ``definition`` replaces the definition document."""
+    written with Rerun directly; ``definition`` replaces the definition document, ``end`` the end marker."""
     import rerun as rr
     document = definition or trajectory_definition(result.trajectory, result.limits, result.joint_names)
     rec = rr.RecordingStream("planner")
@@ -98,7 +98,7 @@ def write_like_planner(path, result, times, positions, *, definition=None, rate_
     rec.send_columns("trajectory/samples", indexes=[rr.TimeColumn("time", duration=nanoseconds)],
                      columns=rr.Scalars.columns(scalars=positions))
     rec.flush()
-    rec.log("trajectory/end", rr.AnyValues(planner_end=json.dumps(end_marker(times, rate_hz))), static=True)
+    rec.log("trajectory/end", rr.AnyValues(planner_end=json.dumps(end or end_marker(times, rate_hz))), static=True)
     rec.flush()
     rec.disconnect()
     return path
@@ -272,19 +272,8 @@ def test_an_end_marker_whose_span_is_a_microsecond_off_the_trajectory_is_named_a
     samples start or end at the wrong time. The end marker is what is wrong, and the message says so."""
     result = small_result()
     times, values = result.trajectory.sample(RATE_HZ)
-    path = tmp_path / "r.rrd"
-    import rerun as rr  # the planner's recording, its end marker's span a microsecond off the trajectory's [0, 4] s
-    rec = rr.RecordingStream("planner")
-    rec.save(str(path))
-    rec.log("trajectory/definition", rr.AnyValues(planner_definition=json.dumps(
-        trajectory_definition(result.trajectory, result.limits, result.joint_names))), static=True)
-    rec.send_columns("trajectory/samples", indexes=[rr.TimeColumn("time", duration=times)],
-                     columns=rr.Scalars.columns(scalars=values[0]))
-    rec.flush()
-    rec.log("trajectory/end", rr.AnyValues(planner_end=json.dumps({**end_marker(times, RATE_HZ), "time_span_s": span})),
-            static=True)
-    rec.flush()
-    rec.disconnect()
+    path = write_like_planner(tmp_path / "r.rrd", result, times, values[0],  # its end marker's span a microsecond
+                              end={**end_marker(times, RATE_HZ), "time_span_s": span})  # off the trajectory's
     with pytest.raises(RecordingError) as raised:
         read_recording(path)
     assert str(raised.value) == f"{path}: trajectory/end: time_span_s {span!r} is not the trajectory's [0, 4.0] s"
