@@ -474,9 +474,10 @@ MAX_RECORDED_S = 9.2e9
 
 
 def check_recordable(total_time: float, *, lower_bound: bool = False,
-                     slowed: RobotLimitOutcome | None = None) -> None:
+                     slowed: RobotLimitOutcome | None = None, slowest: str = "") -> None:
     """Refuse a trajectory longer than ``MAX_RECORDED_S`` (292 years): its recording's times would
-    overflow, and replay would find no samples in it.
+    overflow, and replay would find no samples in it. ``slowest``: what makes it this long, in words
+    (``slowest_joint``), added to the message.
 
     Raises:
         TaskError: naming the limits (or the robot-aware limit that made it this long) and the duration.
@@ -484,9 +485,10 @@ def check_recordable(total_time: float, *, lower_bound: bool = False,
     if total_time < MAX_RECORDED_S:
         return
     key = "limits" if slowed is None or total_time <= slowed.kinematic_total_s else _binding_limit(slowed)
-    raise TaskError(key, f"the trajectory would last {'at least ' if lower_bound else ''}{total_time:.4g} s, "
-                         f"beyond the {MAX_RECORDED_S:.3g} s (292 years) that a recording's timeline of whole "
-                         f"nanoseconds holds: raise the limits (or lower the duration bounds)")
+    raise TaskError(key, f"the trajectory would last {'at least ' if lower_bound else ''}{total_time:.4g} s"
+                         f"{f' ({slowest})' if slowest else ''}, beyond the {MAX_RECORDED_S:.3g} s (292 years) that a "
+                         f"recording's timeline of whole nanoseconds holds: raise the limits (or lower the duration "
+                         f"bounds)")
 
 
 def check_sample_count(task: Task, total_time: float, *, lower_bound: bool = False,
@@ -657,6 +659,17 @@ def shortest_total_time(via: np.ndarray, limits: JointLimits, task: Task) -> flo
     distinct = int(np.count_nonzero(steps.max(axis=1) > 0))
     floor = max(task.min_segment_s, (task.optimizer["bounds"] or (0.0,))[0])
     return max(float((steps / limits.velocity).max(axis=1).sum()), distinct * floor)
+
+
+def slowest_joint(via: np.ndarray, limits: JointLimits) -> str:
+    """The joint whose velocity limit alone makes a trajectory through ``via`` (n, J) [rad] longest, in words:
+    its name, the distance it covers (the sum of its steps), its limit and the time that takes."""
+    distance = np.abs(np.diff(via, axis=0)).sum(axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):  # a joint that does not move, or has no limit: 0 s
+        alone = np.nan_to_num(distance / limits.velocity)
+    j = int(np.argmax(alone))
+    return (f"joint {limits.names[j]} alone covers {in_degrees(distance[j], 0)} at its velocity limit of "
+            f"{in_degrees(limits.velocity[j], 1)} in {alone[j]:.4g} s")
 
 
 def robot_limits(robot: Robot, task: Task) -> JointLimits:
@@ -904,7 +917,7 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
         limits = JointLimits.create(via.shape[1], **task.limits)
 
     shortest = shortest_total_time(via, limits, task)
-    check_recordable(shortest, lower_bound=True)
+    check_recordable(shortest, lower_bound=True, slowest=slowest_joint(via, limits))
     check_sample_count(task, shortest, lower_bound=True)
     start = time.perf_counter()
     settings = task.optimizer

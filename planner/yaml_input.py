@@ -97,8 +97,9 @@ def _where(mark) -> str:
 class _StrictComposing(yaml.composer.Composer, yaml.constructor.SafeConstructor):
     """What a strict loader adds to PyYAML's composer and constructor: it refuses, with a ``TaskError``
     naming the key path and line, a key twice in one mapping, nesting deeper than ``MAX_NESTING``,
-    recursive aliases and documents expanding to more than ``MAX_VALUES`` values. A scalar its constructor
-    cannot convert (``2001-13-45``, an integer of 5000 digits) is a ``yaml.YAMLError``."""
+    recursive aliases and documents expanding to more than ``MAX_VALUES`` values. A node its constructor
+    cannot convert (``2001-13-45``, an integer of 5000 digits, ``1e999``) is a ``_KeyedConstructorError``
+    naming the node's key path."""
 
     peek_event: Callable[[], Any]  # the parser's, PyYAML's or libyaml's (declared, not defined: not shadowed)
     check_event: Callable[..., bool]
@@ -107,6 +108,7 @@ class _StrictComposing(yaml.composer.Composer, yaml.constructor.SafeConstructor)
         self._paths: list[str] = []         # key paths of the nodes being composed, outermost first
         self._sizes: dict[int, int] = {}    # id(node) -> values it expands to, once composed
         self._values = 0                    # values of the document so far, aliases expanded
+        self._node_paths: dict[int, str] = {}  # id(node) -> its key path, where composed (not an alias)
 
     def _count(self, values: int, path: str, mark) -> None:
         self._values += values
@@ -141,6 +143,7 @@ class _StrictComposing(yaml.composer.Composer, yaml.constructor.SafeConstructor)
         children = node.value if isinstance(node, yaml.SequenceNode) else \
             [child for pair in node.value for child in pair] if isinstance(node, yaml.MappingNode) else ()
         self._sizes[id(node)] = 1 + sum(self._sizes[id(child)] for child in children)
+        self._node_paths[id(node)] = path
         return node
 
     def compose_mapping_node(self, anchor):
@@ -180,12 +183,22 @@ class _StrictComposing(yaml.composer.Composer, yaml.constructor.SafeConstructor)
     def construct_object(self, node, deep=False):
         try:
             return super().construct_object(node, deep)
-        except (yaml.YAMLError, PlannerError):
+        except (_KeyedConstructorError, PlannerError):
             raise
+        except yaml.constructor.ConstructorError as exc:
+            raise _KeyedConstructorError(self._node_paths.get(id(node), ""), exc.problem, exc.problem_mark) from None
         except (ValueError, TypeError, AttributeError, OverflowError) as exc:
             kind = node.tag.rsplit(":", 1)[-1]
-            raise yaml.constructor.ConstructorError(None, None, f"cannot read {shown(node.value, 40)} as {kind} "
-                                                                f"({shown(str(exc), 60)})", node.start_mark) from None
+            raise _KeyedConstructorError(self._node_paths.get(id(node), ""), f"cannot read {shown(node.value, 40)} as "
+                                         f"{kind} ({shown(str(exc), 60)})", node.start_mark) from None
+
+
+class _KeyedConstructorError(yaml.constructor.ConstructorError):
+    """A node the constructor refused, with its key path (``""``: the document itself)."""
+
+    def __init__(self, key_path: str, problem: str | None, mark):
+        super().__init__(None, None, problem, mark)
+        self.key_path = key_path
 
 
 class _StrictLoader(_StrictComposing, yaml.SafeLoader):
@@ -276,10 +289,11 @@ def _parse_yaml(text: str, path: Path):
         code = exc.character if isinstance(exc.character, int) else ord(exc.character)
         raise TaskError(str(path), f"control character U+{code:04X} at line {line}, column {column} is not "
                                    f"allowed in YAML{hint}") from None
-    except yaml.YAMLError as exc:
+    except yaml.YAMLError as exc:  # named by the key path of the node it refused, where there is one
         mark = getattr(exc, "problem_mark", None)
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        raise TaskError(str(path), f"not valid YAML{where}: {getattr(exc, 'problem', None) or exc}") from None
+        raise TaskError(getattr(exc, "key_path", "") or str(path),
+                        f"not valid YAML{where}: {getattr(exc, 'problem', None) or exc}") from None
     finally:
         if loader is not None:
             loader.dispose()

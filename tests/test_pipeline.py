@@ -752,9 +752,17 @@ def test_a_trajectory_longer_than_a_recording_holds_is_refused(tmp_path):
     from planner.recording import read_recording
     task = {"version": 1, "waypoints": {"joints_deg": [[0], [10]]}, "limits": {"velocity_deg_s": [1e-9]},
             "trajectory": {"family": "cubic", "sample_rate_hz": 1e-7}}
-    with pytest.raises(TaskError, match=r"^limits: the trajectory would last at least 1e\+10 s, beyond the 9\.2e\+09 s "
-                                        r"\(292 years\) that a recording's timeline"):
+    with pytest.raises(TaskError, match=r"^limits: the trajectory would last at least 1e\+10 s \(joint joint1 alone "
+                                        r"covers 10 deg at its velocity limit of 1e-09 deg/s in 1e\+10 s\), beyond the "
+                                        r"9\.2e\+09 s \(292 years\) that a recording's timeline"):
         plan(task)
+    # The joint named is the one whose own velocity limit takes longest (the hostile-input sweep of 2026-12-07:
+    # the message named no joint), not the first, nor the one that moves furthest.
+    slow = {**task, "waypoints": {"joints_deg": [[0, 0, 0], [90, 10, 5], [0, 20, 0]]},
+            "limits": {"velocity_deg_s": [1.0, 1e-9, 2e-9]}}
+    with pytest.raises(TaskError, match=r"\(joint joint2 alone covers 20 deg at its velocity limit of 1e-09 deg/s in "
+                                        r"2e\+10 s\)"):
+        plan(slow)
     result = plan({**task, "limits": {"velocity_deg_s": [3e-9]}})
     assert 4e9 < result.trajectory.total_time < 9.2e9
     result.save(tmp_path / "out")

@@ -1,9 +1,12 @@
 """Gaps in the tests of planner/timing/problem.py found by mutation testing (mutmut 3.8.1, a partial run)."""
 
 import numpy as np
+import pytest
 
 from planner import JointLimits
+from planner.errors import InputError
 from planner.timing import TimingProblem
+from planner.timing.result import SearchTracker
 
 VIA = np.radians([[0.0, 0.0], [40.0, -20.0], [90.0, 10.0]])
 
@@ -108,3 +111,15 @@ def test_a_minimum_duration_equal_to_the_upper_bound_is_allowed():
     problem = TimingProblem(VIA, "cubic", limits, bounds=(0.5, 2.0), min_duration=2.0)
     assert problem.duration_floor == 2.0
     np.testing.assert_array_equal(problem.search_box()[0], np.full(problem.segment_count, 2.0))
+
+
+def test_an_empty_batch_is_refused_by_every_evaluation_with_an_input_error():
+    """A (0, S) batch is no candidate at all: the problem and the search tracker name it (it reached numpy's
+    reshape and raised a bare ValueError)."""
+    limits = JointLimits.create(2, velocity=[1.0, 1.0], acceleration=[2.0, 2.0], jerk=[10.0, 10.0])
+    problem = TimingProblem(VIA, "hybrid", limits)
+    empty = np.zeros((0, problem.segment_count))
+    tracker = SearchTracker(problem)
+    for evaluate in (problem.evaluate, problem.evaluate_durations, problem.coefficients, tracker.evaluate):
+        with pytest.raises(InputError, match="at least one vector of 4 segment durations, got none"):
+            evaluate(empty)

@@ -318,15 +318,20 @@ def test_a_file_name_that_cannot_name_the_task_asks_for_a_name_key(tmp_path, ste
     assert load_task(task).name == "named"
 
 
-@pytest.mark.parametrize("text", [
-    "version: !!timestamp 2001-13-45\n", "version: !!timestamp soon\n", f"version: {'1' * 5000}\n",
-    "version: !!int 0b\n",
-    "version: !!float x\n", "version: !!binary 'a'\n", "version: !!python/object:os.system x\n",
-    "? [a]\n: 1\n", "version: 1\n---\nversion: 1\n", "version: *nowhere\n",
+@pytest.mark.parametrize("text, key", [
+    ("version: !!timestamp 2001-13-45\n", "version"), ("version: !!timestamp soon\n", "version"),
+    (f"version: {'1' * 5000}\n", "version"), ("version: !!int 0b\n", "version"),
+    ("version: !!float x\n", "version"), ("version: !!binary 'a'\n", "version"),
+    ("version: !!python/object:os.system x\n", "version"),
+    ("limits:\n  jerk_deg_s3: [1, 2, 1e999]\n", "limits.jerk_deg_s3[2]"),
+    ("waypoints: {joints_deg: [[0, 0], [1, !!float x]]}\n", "waypoints.joints_deg[1][1]"),
+    ("? [a]\n: 1\n", None), ("version: 1\n---\nversion: 1\n", None), ("version: *nowhere\n", None),
 ])
-def test_scalars_yaml_cannot_convert_are_task_errors(tmp_path, text):
+def test_scalars_yaml_cannot_convert_are_task_errors(tmp_path, text, key):
+    """Named by the key path of the value YAML cannot convert (a number no float holds was named by the file
+    alone, hostile-input sweep of 2026-12-07), and by the file where the document itself is wrong."""
     task = write(tmp_path, text)
-    error = assert_refused(lambda: load_task(task), r"not valid YAML at line \d+, column \d+: ", str(task))
+    error = assert_refused(lambda: load_task(task), r"not valid YAML at line \d+, column \d+: ", key or str(task))
     assert len(str(error)) < 300
 
 

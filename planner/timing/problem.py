@@ -265,9 +265,14 @@ class TimingProblem:
         """``durations`` as a (B, S) array of durations [s] > 0 for this problem's S segments.
 
         Raises:
-            InputError: naming ``name``: not numbers, the wrong count, or not finite and > 0.
+            InputError: naming ``name``: not numbers, the wrong count, not finite and > 0, or no
+                duration vector at all (B = 0).
         """
-        return np.atleast_2d(positive_durations(name, durations, self.segment_count))
+        batch = np.atleast_2d(positive_durations(name, durations, self.segment_count))
+        if not len(batch):
+            raise InputError(f"{name} must hold at least one vector of {self.segment_count} segment durations, "
+                             f"got none")
+        return batch
 
     def _states(self, states, batch: int) -> np.ndarray | None:
         """Via-point states as a (B, n, J, 3) array of finite numbers, or None.
