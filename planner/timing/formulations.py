@@ -218,7 +218,8 @@ class SplineFormulation:
     @property
     def still_joints(self) -> np.ndarray:
         """(J,) whether a joint's via-points are all equal: every family keeps it there for any durations (its
-        knot states are linear in the via-points relative to the first), so its range needs no constraint."""
+        knot states are linear in the via-points relative to the first; where the states are free, they are
+        held at 0), so its range needs no constraint."""
         return np.ptp(self.via_points, axis=0) == 0
 
     def knot_resting_sides(self) -> np.ndarray:
@@ -410,6 +411,7 @@ class QuinticFormulation(SplineFormulation):
         lower[acceleration] = np.where(away < 0, 0.0, lower[acceleration])
         upper[acceleration] = np.where(away > 0, 0.0, upper[acceleration])
         sides = self.limits.bound_sides(self.via_points)
+        sides[:, self.still_joints] = 0  # it stays on the bound: its states are 0 (and 0 on a bound degenerates)
         jerk = 2 * inner * joints  # the jerks, knot-major within each joint's column of n
         for joint in range(joints):
             # q - bound ~ j t^3 / 6 after the start, j (t - T)^3 / 6 before the end
@@ -485,6 +487,7 @@ class Hermite7Formulation(SplineFormulation):
         bounds = np.concatenate([self._scaled_bounds(order, inner) for order in range(1, 4)])
         bounds = np.minimum(bounds, self._from_rest(inner))
         bounds[:inner * joints] = np.where((self.resting_sides()[1:-1] != 0).T.ravel(), 0.0, bounds[:inner * joints])
+        bounds = np.where(np.tile(np.repeat(self.still_joints, inner), 3), 0.0, bounds)  # (``still_joints``)
         return SymbolicSpline(states, -bounds, bounds, ca.MX(0, 1), self._implied_rows(ca, knots, h),
                               blocks=[SegmentBlock(np.arange(n - 1), coefficients, (0, 1, 2, 3), self.family.basis)])
 

@@ -54,8 +54,11 @@ WINDOW_IPOPT = {"ipopt.tol": 1e-6, "ipopt.constr_viol_tol": 1e-6, "ipopt.mu_init
 #: optimum's active bounds. Over 24 clipped walks of 512 and 1024 via-points (hybrid; the benchmark's seeds,
 #: 12 each) the whole NLP took 12 to 19 iterations from the stitched start with a barrier parameter of
 #: 1e-3 and the default push, 4 to 9 with these, to the same optimum (within 1e-7 of the total); smooth
-#: walks (512, hybrid) and cubic (1024, both classes) alike, 12-16 -> 4-7.
-STITCHED_IPOPT = {"ipopt.mu_init": 1e-7, "ipopt.bound_push": 1e-8, "ipopt.bound_frac": 1e-8}
+#: walks (512, hybrid) and cubic (1024, both classes) alike, 12-16 -> 4-7. Its tolerances are 1e-8 (1e-10
+#: elsewhere): over six clipped walks (512 and 1024 via-points, hybrid) 28 iterations instead of 37, each
+#: total 3.4e-10 to 7.2e-10 of itself higher once repaired (1e-9: 33 iterations, 5e-11 higher).
+STITCHED_IPOPT = {"ipopt.mu_init": 1e-7, "ipopt.bound_push": 1e-8, "ipopt.bound_frac": 1e-8, "ipopt.tol": 1e-8,
+                  "ipopt.constr_viol_tol": 1e-8}
 
 
 def window_spans(chords: int) -> list[tuple[int, int, int, int]]:
