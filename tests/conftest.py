@@ -6,6 +6,7 @@ from hypothesis import HealthCheck, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
+import planner.timing.nlp as nlp
 from planner import paper
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -199,3 +200,31 @@ def pendulum(tmp_path, length=0.5, mass=2.0, inertia=0.03, effort=20.0):
     urdf = tmp_path / "pendulum.urdf"
     urdf.write_text(PENDULUM.format(length=length, mass=mass, inertia=inertia, effort=effort))
     return Robot.from_urdf(urdf, "tip")
+
+
+def record_solves(monkeypatch, certificates: list[int] | None = None) -> list[int]:
+    """Wrap every program's IPOPT solver: the returned list gets each solve's own iteration count (and
+    ``certificates`` the number of certificates of the program solved), so the rounds, iterations and
+    certificates an outcome reports can be checked against the solves actually made."""
+    counts: list[int] = []
+    build = nlp._Program.__init__
+
+    def init(self, program_nlp, program_certificates, warm=False):
+        build(self, program_nlp, program_certificates, warm)
+        solver, size = self.solver, len(program_certificates)
+
+        class Recorder:
+            def __call__(self, **arguments):
+                solution = solver(**arguments)
+                counts.append(int(solver.stats()["iter_count"]))
+                if certificates is not None:
+                    certificates.append(size)
+                return solution
+
+            def stats(self):
+                return solver.stats()
+
+        self.solver = Recorder()
+
+    monkeypatch.setattr(nlp._Program, "__init__", init)
+    return counts

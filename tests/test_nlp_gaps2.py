@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import planner.timing.nlp as nlp
-from conftest import pendulum
+from conftest import pendulum, record_solves
 from planner import JointLimits, paper
 from planner.timing import TimingProblem
 from planner.timing.result import SOLVED
@@ -22,34 +22,6 @@ def _uniform_start(problem: TimingProblem) -> np.ndarray:
     return problem.evaluate(np.ones((1, problem.segment_count))).durations[0]
 
 
-def _record_solves(monkeypatch, certificates: list[int] | None = None) -> list[int]:
-    """Wrap every program's IPOPT solver: the returned list gets each solve's own iteration count (and
-    ``certificates`` the number of certificates of the program solved), so the rounds, iterations and
-    certificates an outcome reports can be checked against the solves actually made."""
-    counts: list[int] = []
-    build = nlp._Program.__init__
-
-    def init(self, program_nlp, program_certificates, warm=False):
-        build(self, program_nlp, program_certificates, warm)
-        solver, size = self.solver, len(program_certificates)
-
-        class Recorder:
-            def __call__(self, **arguments):
-                solution = solver(**arguments)
-                counts.append(int(solver.stats()["iter_count"]))
-                if certificates is not None:
-                    certificates.append(size)
-                return solution
-
-            def stats(self):
-                return solver.stats()
-
-        self.solver = Recorder()
-
-    monkeypatch.setattr(nlp._Program, "__init__", init)
-    return counts
-
-
 # ------------------------------------------------------------------ TimingNLP.solve: rounds and counts
 
 @pytest.mark.parametrize("family, rounds", [("hybrid", 1), ("quintic", 2)])
@@ -59,7 +31,7 @@ def test_rounds_and_iterations_are_those_of_the_solves_made(monkeypatch, family,
     leaves extremes inside segments beyond their bounds, which cuts then hold). The outcome reports one
     round per IPOPT solve made and the sum of their iterations."""
     certificates: list[int] = []
-    counts = _record_solves(monkeypatch, certificates)
+    counts = record_solves(monkeypatch, certificates)
     problem = TimingProblem(VIA, family, paper.paper_limits())
     start = _uniform_start(problem)
     outcome = nlp.TimingNLP(problem, start).solve(start)
@@ -73,7 +45,7 @@ def test_rounds_and_iterations_are_those_of_the_solves_made(monkeypatch, family,
 
 def test_the_rounds_stop_at_max_rounds(monkeypatch):
     """With MAX_ROUNDS 1, the case above (two rounds) stops after one solve, whatever it left."""
-    counts = _record_solves(monkeypatch)
+    counts = record_solves(monkeypatch)
     monkeypatch.setattr(nlp, "MAX_ROUNDS", 1)
     problem = TimingProblem(VIA, "quintic", paper.paper_limits())
     start = _uniform_start(problem)
@@ -205,7 +177,7 @@ def test_torque_rounds_go_on_until_the_frozen_model_settles(tmp_path, monkeypatc
     model (the slow start's) is off, so a second round solves with the model frozen at the first one's
     result, and then stops (model settled, exact check passed). The result reaches the 12 N m limit by the
     closed form, densely sampled, within the model tolerance (1e-3 of the limit)."""
-    counts = _record_solves(monkeypatch)
+    counts = record_solves(monkeypatch)
     problem, constraints, start = _pendulum_problem(tmp_path, torque=12.0)
     outcome = nlp.TimingNLP(problem, start, constraints).solve(start)
     assert outcome.rounds == len(counts) == 2 and outcome.status == "Solve_Succeeded"

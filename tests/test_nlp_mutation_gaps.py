@@ -2,11 +2,11 @@
 mutation-testing run: each test kills a mutant that survived the existing tests, checked against an
 independent computation (dense sampling, SLSQP, the problem's own bounds and floor)."""
 
-
 import numpy as np
 import pytest
 
 import planner.timing.nlp as nlp
+from conftest import record_solves
 from planner import JointLimits, paper
 from planner.timing import TimingProblem, optimize
 from planner.timing.nlp import TimingNLP, touch_certificate
@@ -19,30 +19,6 @@ VIA = np.deg2rad(paper.VIA_POINTS_DEG)
 def _uniform_start(problem: TimingProblem) -> np.ndarray:
     """Equal durations, repaired (feasible and tight)."""
     return problem.evaluate(np.ones((1, problem.segment_count))).durations[0]
-
-
-def _record_iterations(monkeypatch) -> list[int]:
-    """Wrap every program's IPOPT solver: the returned list gets each solve's own iteration count."""
-    counts: list[int] = []
-    build = nlp._Program.__init__
-
-    def init(self, program_nlp, certificates, warm=False):
-        build(self, program_nlp, certificates, warm)
-        solver = self.solver
-
-        class Recorder:
-            def __call__(self, **arguments):
-                solution = solver(**arguments)
-                counts.append(int(solver.stats()["iter_count"]))
-                return solution
-
-            def stats(self):
-                return solver.stats()
-
-        self.solver = Recorder()
-
-    monkeypatch.setattr(nlp._Program, "__init__", init)
-    return counts
 
 
 # ------------------------------------------------------------------ certificates
@@ -148,7 +124,7 @@ def test_the_iterations_reported_include_the_solve_without_the_floor(monkeypatch
     problem = TimingProblem(VIA, "hybrid", paper.paper_limits(), min_duration=1.5)
     start = _uniform_start(problem)
     solver = TimingNLP(problem, start)
-    counts = _record_iterations(monkeypatch)
+    counts = record_solves(monkeypatch)
     outcome = solver.solve(start)
     assert len(counts) >= 2  # (the floor was crossed: a second pass)
     assert outcome.iterations == sum(counts)
