@@ -665,8 +665,7 @@ def slowest_joint(via: np.ndarray, limits: JointLimits) -> str:
     """The joint whose velocity limit alone makes a trajectory through ``via`` (n, J) [rad] longest, in words:
     its name, the distance it covers (the sum of its steps), its limit and the time that takes."""
     distance = np.abs(np.diff(via, axis=0)).sum(axis=0)
-    with np.errstate(divide="ignore", invalid="ignore"):  # a joint that does not move, or has no limit: 0 s
-        alone = np.nan_to_num(distance / limits.velocity)
+    alone = distance / limits.velocity  # limits are > 0; a joint without one (inf) takes 0 s
     j = int(np.argmax(alone))
     return (f"joint {limits.names[j]} alone covers {in_degrees(distance[j], 0)} at its velocity limit of "
             f"{in_degrees(limits.velocity[j], 1)} in {alone[j]:.4g} s")
