@@ -252,7 +252,9 @@ def test_the_windows_settings_record_what_ran(small_windows):
     problem = TimingProblem(via, "hybrid", paper.paper_limits(), min_duration=1e-3)
     windows = optimize(problem, "nlp").settings["windows"]
     assert {key: windows[key] for key in ("count", "chords", "margin", "ipopt", "stitched_ipopt")} == {
-        "count": 4, "chords": 24, "margin": 4, "ipopt": {"tol": 1e-6, "constr_viol_tol": 1e-6, "mu_init": 1e-2},
+        "count": 4, "chords": 24, "margin": 4,
+        "ipopt": {"tol": 1e-6, "constr_viol_tol": 1e-6, "mu_init": 1e-2, "mumps_scaling": 0,
+                  "mumps_permuting_scaling": 0},
         "stitched_ipopt": {"mu_init": 1e-7, "bound_push": 1e-8, "bound_frac": 1e-8, "tol": 1e-8,
                            "constr_viol_tol": 1e-8}}
     assert (WINDOW_CHORDS, WINDOW_MARGIN) == (128, 16)  # what the README says

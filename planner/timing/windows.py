@@ -46,8 +46,14 @@ WINDOW_MARGIN = 16
 #: IPOPT's tolerances in a window (the whole problem is solved to the usual ones after), and its first barrier
 #: parameter: from a repaired shape (feasible), 1e-2 rather than the default 0.1 took 12 % fewer iterations over
 #: the windows of six clipped walks (512 and 1024 via-points, hybrid; 1870 -> 1639) and 10 % over six more (3959
-#: -> 3550), each window's best objective the same (one 3.6e-4 lower); 3e-2 and 5e-3 took more.
-WINDOW_IPOPT = {"ipopt.tol": 1e-6, "ipopt.constr_viol_tol": 1e-6, "ipopt.mu_init": 1e-2}
+#: -> 3550), each window's best objective the same (one 3.6e-4 lower); 3e-2 and 5e-3 took more. MUMPS neither
+#: scales nor permutes the KKT matrix by its values (``mumps_scaling``, ``mumps_permuting_scaling`` 0; the
+#: defaults choose a scaling at every factorization): the windows of two clipped 512-point walks (hybrid) took
+#: 1.54 s instead of 1.65 s in one process, with the same iterations and optima. Not in every solve: on the
+#: paper's via-points 10 rad from zero, ranges 5 deg beyond them (cubic, from equal durations), a solve without
+#: them ended outside a range.
+WINDOW_IPOPT = {"ipopt.tol": 1e-6, "ipopt.constr_viol_tol": 1e-6, "ipopt.mu_init": 1e-2, "ipopt.mumps_scaling": 0,
+                "ipopt.mumps_permuting_scaling": 0}
 #: IPOPT's settings for the whole problem from the stitched windows: a start near the optimum, where the
 #: default barrier parameter (0.1) first pushes every iterate away from its bounds, and the default push of
 #: the start into the bounds' interior (1e-2 of a bound, or of the gap between two) moves it off the
