@@ -525,13 +525,12 @@ def test_free_states_repair_is_the_time_scaling_lemma(paper_via, paper_limits):
     assert max(repaired.ratios[0, d].max() ** (1 / (d + 1)) for d in range(3)) == pytest.approx(1, abs=1e-9)
 
 
-def test_the_first_round_cuts_a_joint_at_rest(paper_limits):
+def test_the_first_round_certifies_a_joint_at_rest(paper_limits):
     """hermite7 (free via-point states): a joint that rests over several via-points has, at the start, no
-    extreme inside those segments, so it got no cut, and the first solve could make its velocity,
+    extreme inside those segments, so it got no certificate, and the first solve could make its velocity,
     acceleration and jerk there anything (clipped walks of 32 via-points: ratios up to 160 after every
-    round, and the NLP's result lost to its own start, 82.3 s against 41.3 s now). Each such segment
-    gets cuts at FLAT_CUTS on both sides for every quantity only cuts bound."""
-    from planner.timing.nlp import FLAT_CUTS
+    round, and the NLP's result lost to its own start, 82.3 s against 41.3 s). Each such segment
+    gets an exact certificate (``sos.py``) on both sides for its velocity, acceleration and jerk."""
 
     via = np.deg2rad([[0, 0, 0, 0, 0, 0], [30, 20, 10, 5, 5, 5], [50, 40, 20, 10, 10, 10],
                       [80, 40, 30, 15, 15, 15], [60, 40, 20, 20, 20, 20], [90, 40, 10, 25, 25, 25],
@@ -545,8 +544,8 @@ def test_the_first_round_cuts_a_joint_at_rest(paper_limits):
     certificates, _ = nlp._certify([], coefficients, start, everywhere=True)
     for k in resting:
         for order in (1, 2, 3):
-            cuts = {(c.side, c.centre) for c in certificates if (c.row, c.joint, c.order) == (k, 1, order)}
-            assert cuts == {(side, s) for side in (1, -1) for s in FLAT_CUTS}
+            found = {(c.side, c.kind) for c in certificates if (c.row, c.joint, c.order) == (k, 1, order)}
+            assert found == {(side, f"sos{7 - order}") for side in (1, -1)}
 
 
 # The formulations and certificates, against independent optima and exactness (from a mutation run
@@ -782,7 +781,7 @@ def test_a_time_limit_that_ends_the_nlp_keeps_each_starts_last_solved_round(monk
     via = np.radians(np.cumsum(np.random.default_rng(4).uniform(-30, 30, (8, 2)), axis=0))
     limits = JointLimits.create(2, velocity=np.radians([60, 60]), acceleration=np.radians([120, 120]),
                                 jerk=np.radians([600, 600]))
-    problem = TimingProblem(via, "hermite7", limits)
+    problem = TimingProblem(via, "quintic", limits)  # 4 rounds of cuts
     with monkeypatch.context() as patched:
         patched.setattr(nlp, "MAX_ROUNDS", 2)
         stopping = {start.label: start.objective for start in optimize(problem, "nlp").starts}
