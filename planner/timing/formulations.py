@@ -156,8 +156,9 @@ class SplineFormulation:
     """The symbolic form of one family for given via-points, limits and scales.
 
     Attributes:
-        limits_by_cuts: whether the family's velocity, acceleration and jerk extremes inside segments
-            are all bounded by cuts (degree 5 and above), so that an NLP start takes several rounds.
+        limits_by_cuts: whether the family's extremes inside segments are bounded by certificates of degree
+            4 and above (degree 5 and above: cuts, whose rounds re-place them, or hermite7's exact forms,
+            ``sos.py``, a program many times the size of the spline's), so that an NLP start takes long.
     """
 
     limits_by_cuts = False

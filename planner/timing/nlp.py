@@ -181,9 +181,10 @@ REUSE_OVERRUN = 0.1
 #: costs more than it saves (``scripts/bench_scale.py``, hybrid, smooth walks: 30 -> 42 ms at n = 16,
 #: 39 -> 50 ms at n = 32, where each start takes a few milliseconds).
 CONCURRENT_SEGMENTS = 64
-#: The same for the families whose limits only cuts bound (``SplineFormulation.limits_by_cuts``: quintic,
-#: hermite7; every start takes rounds of solves): side by side from this many segments. hermite7: paper
-#: case 2.25 -> 1.23 s, n = 32 walk 20.2 -> 10.2 s; quintic: paper case 98 -> 88 ms.
+#: The same for the families whose limits certificates of degree 4 and above bound
+#: (``SplineFormulation.limits_by_cuts``: quintic, hermite7, trigonometric; every start is long): side by side
+#: from this many segments. hermite7 (with cut rounds then): paper case 2.25 -> 1.23 s, n = 32 walk 20.2 ->
+#: 10.2 s; quintic: paper case 98 -> 88 ms.
 CUT_CONCURRENT_SEGMENTS = 2
 #: The status of a start whose solve the time limit ended (in its own process, from ``CONCURRENT_SEGMENTS``
 #: on: IPOPT checks its own wall-time limit only between iterations, and one iteration of a degenerate
@@ -915,7 +916,8 @@ def _jerk_energy(ca, blocks: list[SegmentBlock], h):
 
 def _concurrent(problem: TimingProblem) -> bool:
     """Whether ``problem``'s starts are solved side by side: from ``CONCURRENT_SEGMENTS`` segments on, or
-    ``CUT_CONCURRENT_SEGMENTS`` for a family of degree 5 and above (cuts bound its limits)."""
+    ``CUT_CONCURRENT_SEGMENTS`` for a family of degree 5 and above (certificates of degree 4 and above bound
+    its limits)."""
     cut_only = FORMULATIONS[problem.family.name].limits_by_cuts
     return problem.segment_count >= (CUT_CONCURRENT_SEGMENTS if cut_only else CONCURRENT_SEGMENTS)
 
