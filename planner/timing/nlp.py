@@ -551,7 +551,8 @@ class TimingNLP:
     def _certificate_start(self, certificates: list[Certificate], coefficients: np.ndarray,
                            h: np.ndarray) -> np.ndarray:
         """Certificate variables at a spline: lambda = max(p1 + 2 p0, 0) for each quadratic
-        (a0 alike for each cubic, whose a2 starts at 0; cuts have none); IPOPT moves them."""
+        (a0 alike for each cubic, whose a2 starts at 0; cuts have none), and the factors whose Lukacs form
+        fits p for each form (``sos.sos_start``); IPOPT moves them."""
         if not certificates:
             return np.zeros(0)
         f = np.zeros((max(c.degree for c in certificates) + 1, len(certificates)))
@@ -725,7 +726,8 @@ class _Program:
                 p = nlp._certified_polynomials([certificates[i] for i in chosen], [_pick(ca, fk, chosen) for fk in f])
                 each = certificates[chosen[0]].variable_count
                 variables = ca.MX.sym("certificate", each * len(chosen))
-                for k in range(variables.shape[0]):  # a cubic's two per certificate: all a0, then all a2
+                for k in range(variables.shape[0]):  # the k-th of each in block k: a cubic's a0 then a2, a form's
+                    # factor entries (``sos.py``) one by one
                     self.certificate_variables[certificates[chosen[k % len(chosen)]]].append(variable_count + k)
                 variable_count += variables.shape[0]
                 extra.append(variables)
