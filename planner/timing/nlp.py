@@ -62,7 +62,8 @@ By Lukacs' theorem such a polynomial is a sum of squares weighted by s and
   that its start's extremes lie on (both sides where none lies inside): cut
   rounds re-placed cuts at the moving extremes for 12 rounds on the paper's
   case (317-338 iterations per start) and ended 1e-7 above the optimum; with
-  these one round of 49-53 iterations reaches it (16.4720805 s).
+  these one round of 49-53 iterations reaches it (16.4720805 s). Not beside
+  the robot rows (cuts there, ``_certify``).
 
 Rounds. Certificates are added only where needed: a round solves, checks the
 trajectory with the project's exact kinematics (``segment_extrema``), and
@@ -486,7 +487,12 @@ class TimingNLP:
         changed = False
         resting = self.formulation.knot_resting_sides()
         moving = np.flatnonzero(~self.formulation.still_joints).tolist()  # a still joint stays at its via-point
-        free = self.problem.family.free_states and self.problem.family.basis != "trigonometric"
+        # Lukacs' forms where the states are free, but not beside robot rows: their rounds refit the robot model
+        # (up to 12, in a trust region) and each solved the program with every form again (hermite7 with a
+        # tool-speed cap, scripts/bench_robot_limits.py: PUMA 0.25 m/s 13.8 -> 63.8 s, 30 deg/s 11.5 -> 74.7 s
+        # and 2.5 % longer, UR5 0.25 m/s 8.6 -> 26.4 s); cuts there, as before.
+        free = (self.problem.family.free_states and self.problem.family.basis != "trigonometric"
+                and self.robot is None)
         for b, block in enumerate(self.blocks):
             orders = self._certified_orders(block)
             if not orders:
