@@ -1,5 +1,7 @@
 """Lukacs' forms (planner/timing/sos.py): against dense evaluation of the Gram matrices they stand for."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -21,6 +23,7 @@ from planner.timing.sos import (
 from planner.timing.starts import start_shapes
 
 GRID = np.linspace(0.0, 1.0, 2001)
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def _chebyshev_row(size: int, s: np.ndarray) -> np.ndarray:
@@ -62,9 +65,9 @@ def test_the_forms_are_the_gram_matrices_polynomial(degree, data):
 
 @pytest.mark.parametrize("degree", SOS_DEGREES)
 def test_the_start_fits_positive_polynomials_and_not_negative_ones(degree):
-    """Random polynomials (fixed seed) shifted to a minimum of 0.05 on [0, 1] are fitted exactly (residual
-    rows below 1e-7) with diagonals >= 0, as the NLP's bounds ask; shifted to a minimum of -0.05 they cannot
-    be (a form is >= 0 everywhere on [0, 1])."""
+    """Random polynomials (fixed seed) shifted to a minimum of 0.05 on [0, 1] are fitted exactly in 60
+    iterations (residual rows below 1e-7; the default 30, the NLP's start, within 1e-3) with diagonals >= 0,
+    as the NLP's bounds ask; shifted to a minimum of -0.05 they cannot be (a form is >= 0 on [0, 1])."""
     rng = np.random.default_rng(degree)
     p = rng.normal(size=(degree + 1, 40))
     lowest = np.array([np.polynomial.polynomial.polyval(GRID, column).min() for column in p.T])
@@ -76,6 +79,9 @@ def test_the_start_fits_positive_polynomials_and_not_negative_ones(degree):
         assert np.all(z >= factor_lower_bounds(degree)[:, None])
         if fits:
             assert residual.max() < 1e-7
+            near = sos_start(shifted, degree)  # the NLP's start: close, IPOPT solves the rest
+            residual = np.abs(np.array(sos_residuals(list(shifted), list(near), degree))).max(axis=0)
+            assert np.median(residual) < 1e-8 and residual.max() < 1e-3
         else:
             assert residual.min() > 1e-4
 
@@ -92,3 +98,22 @@ def test_hermite7_bounds_its_derivatives_exactly_in_one_round():
     assert outcome.durations.sum() == pytest.approx(16.4723, rel=1e-4)
     checked = problem.evaluate_states(outcome.durations[None], outcome.states[None])
     assert checked.feasible[0] and checked.durations[0].sum() == pytest.approx(outcome.durations.sum(), rel=1e-8)
+
+
+def test_beside_robot_rows_hermite7_is_certified_by_cuts():
+    """The robot rows' rounds refit their model up to 12 times; with Lukacs' forms each solved the whole
+    program again (several times slower), so a TimingNLP with robot rows certifies hermite7 by cuts, and
+    without them by forms: the same start, the same places."""
+    from planner.robot import Robot
+    from planner.timing.robot_rows import RobotConstraints
+
+    via = np.deg2rad(paper.VIA_POINTS_DEG)
+    problem = TimingProblem(via, "hermite7", paper.paper_limits())
+    start = problem.evaluate(start_shapes(problem)["cruise"][None]).durations[0]
+    coefficients = problem.coefficients(start[None])[0]
+    robot = RobotConstraints(Robot.from_urdf(ROOT / "robots" / "puma560.urdf", "tool"), None, 0.25)
+    alone, _ = TimingNLP(problem, start)._certify([], coefficients, start, everywhere=True)
+    beside, _ = TimingNLP(problem, start, robot)._certify([], coefficients, start, everywhere=True)
+    assert {c.kind for c in alone if c.order >= 1} == {"sos4", "sos5", "sos6"}
+    assert {c.kind for c in beside if c.order >= 1} == {"cut"}
+    assert {c.place for c in alone} == {c.place for c in beside}
