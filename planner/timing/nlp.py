@@ -121,9 +121,10 @@ MAX_ROUNDS = 12
 #: The robot model's trust region in position (``TimingNLP.solve``): a round whose model ends this far
 #: off the truth (a fraction of a limit), and not half as far as the round before, halves the region.
 TRUST_SHRINK_GAP = 5e-2
-#: A family with free via-point states is held this fraction below h_max in the NLP: its limits are cut, the
-#: last round leaves them exceeded by about 1e-7 of themselves, and the repair (``evaluate_states``) scales
-#: every duration up by that much, which took a segment on h_max past it (by 1.7e-7 to 4.8e-7: refused).
+#: A family with free via-point states is held this fraction below h_max in the NLP: where its limits are cut
+#: (positions; every limit beside robot rows; before Lukacs' forms, all), the last round leaves them exceeded by
+#: about 1e-7 of themselves, and the repair (``evaluate_states``) scales every duration up by that much, which
+#: took a segment on h_max past it (by 1.7e-7 to 4.8e-7: refused).
 FREE_STATES_H_MAX_MARGIN = 2e-6
 #: Extremes inside a segment beyond (1 - FLAG_MARGIN) of their bound get a certificate.
 FLAG_MARGIN = 0.05
