@@ -575,8 +575,8 @@ class TimingNLP:
             if kind in ("cut", "touch"):
                 continue
             p = np.array(self._certified_polynomials([certificates[i] for i in chosen], list(f[:, chosen])))
-            if kind.startswith("sos"):
-                values.append(sos_start(np.array(p), int(kind[3:])).ravel())
+            if certificates[chosen[0]].sos:
+                values.append(sos_start(p, certificates[chosen[0]].degree).ravel())
                 continue
             values.append(np.maximum(p[1] + 2 * p[0], 0.0))
             if kind == "cubic":
@@ -738,8 +738,8 @@ class _Program:
                     self.certificate_variables[certificates[chosen[k % len(chosen)]]].append(variable_count + k)
                 variable_count += variables.shape[0]
                 extra.append(variables)
-                degree = certificates[chosen[0]].degree
-                extra_lower.append(np.repeat(factor_lower_bounds(degree), len(chosen)) if kind.startswith("sos")
+                exact, degree = certificates[chosen[0]].sos, certificates[chosen[0]].degree
+                extra_lower.append(np.repeat(factor_lower_bounds(degree), len(chosen)) if exact
                                    else np.zeros(variables.shape[0]))
                 equalities = 0  # leading rows = 0 (the rest >= margin)
                 if kind == "touch":
@@ -751,7 +751,7 @@ class _Program:
                     certified = cubic_certificate(p, variables[:len(chosen)], variables[len(chosen):])
                 elif kind == "quadratic":
                     certified = quadratic_certificate(p, variables)
-                elif kind.startswith("sos"):
+                elif exact:
                     certified = sos_residuals(p, [variables[k * len(chosen):(k + 1) * len(chosen)]
                                                   for k in range(each)], degree)
                     equalities = len(certified)
@@ -802,7 +802,7 @@ class _Program:
         size = certificate_variables.shape[0]
         with np.errstate(divide="ignore"):
             log_low, log_high = np.log(h_low), np.log(h_high)  # -inf, +inf where absent
-        self.lbx = np.concatenate((np.full(segments, log_low), spline.lower, *extra_lower, np.zeros(0)))
+        self.lbx = np.concatenate((np.full(segments, log_low), spline.lower, *extra_lower))
         #: ``lbx`` without the problem's shortest-segment floor (``TimingNLP.solve``)
         self.unfloored_lbx = self.lbx.copy()
         if problem.bounds is None:
