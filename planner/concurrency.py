@@ -390,22 +390,27 @@ class WarmWorkers:
 
     def __init__(self, preparations: Sequence[Callable[[], None] | None]):
         """One child per preparation: child w runs ``preparations[w]()`` (None: nothing), then serves
-        share w of ``map``'s items (items w, w + count, ...). A preparation's failure is ignored
-        there: the work that needs it fails in turn, and says why."""
+        item w of ``map``'s items, the one it prepared for, and then, of the items after the first
+        ``count``, the next one not yet taken by any child until none is left (items of unequal cost
+        keep every core busy to the end; without a shared counter, ``_shared_counter``, child w
+        serves items w, w + count, ... instead). A preparation's failure is ignored there: the work
+        that needs it fails in turn, and says why."""
         self.preparations = list(preparations)
         self._children: list = []
         self._used = False
+        self._taken = None
 
     def __enter__(self) -> "WarmWorkers":
         context = _fork_context()
         if context is None:
             return self
+        self._taken = _shared_counter(context)
         try:
             for prepare in self.preparations:
                 jobs, give = context.Pipe(duplex=False)
                 receive, send = context.Pipe(duplex=False)
-                process = context.Process(target=_serve_when_given, args=(prepare, jobs, send, os.getpid()),
-                                          daemon=True)
+                process = context.Process(target=_serve_when_given,
+                                          args=(prepare, jobs, send, os.getpid(), self._taken), daemon=True)
                 with _forking():  # started and listed in one step: ``__exit__`` ends every child
                     process.start()
                     self._children.append((process, give, receive))
@@ -426,16 +431,20 @@ class WarmWorkers:
         self._children = []
 
     def map(self, function: Callable[[Item], Result], items: Sequence[Item]) -> list[Result]:
-        """``[function(item) for item in items]``, share w (items w, w + count, ...) in child w while
-        the caller waits; ``map_forked`` over as many workers when there are no children (no
-        ``fork``, or outside the context) or the work does not pickle."""
+        """``[function(item) for item in items]``, child w serving item w and then the items after the
+        first ``count`` that it takes (``__init__``) while the caller waits; ``map_forked`` over as many
+        workers when there are no children (no ``fork``, or outside the context) or the work does not
+        pickle."""
         if self._used:
             raise RuntimeError("WarmWorkers.map runs once: each child serves one share")
         self._used = True
         children = self._children[:len(items)]
-        shares = [list(range(w, len(items), len(children))) for w in range(len(children))]
+        count = len(children)
+        # (item indices served first, the index from which items are taken from the shared counter)
+        shares = ([([w], count) for w in range(count)] if self._taken is not None else
+                  [(list(range(w, len(items), count)), len(items)) for w in range(count)])
         try:
-            jobs = [pickle.dumps((function, [items[i] for i in share])) for share in shares]
+            jobs = [pickle.dumps((function, items, own, shared_from)) for own, shared_from in shares]
         except Exception:  # noqa: BLE001 - whatever stops pickling: fork with the work in hand instead
             jobs = []
         if not children or not jobs:
@@ -449,16 +458,18 @@ class WarmWorkers:
                     raise _lost(process, "before its work was handed over") from None
             for _, give, _ in self._children:
                 give.close()  # a child without a share ends
-            for (process, _, receive), share in zip(children, shares):
-                _collect(receive, share, process, results)
+            for process, _, receive in children:
+                results.update(_received(receive, process))
         except BaseException:
             self.__exit__(None, None, None)  # every child ends before the caller cleans up (its folder, say)
             raise
         return [results[i] for i in range(len(items))]
 
 
-def _serve_when_given(prepare: Callable[[], None] | None, jobs, send, parent: int) -> None:
-    """A warm child: ``prepare()``, then the share that comes down ``jobs`` (none: it ends)."""
+def _serve_when_given(prepare: Callable[[], None] | None, jobs, send, parent: int, taken) -> None:
+    """A warm child: ``prepare()``, then the share that comes down ``jobs`` (none: it ends): its own
+    items, then those it takes with the shared counter ``taken`` (``WarmWorkers.map``), their results
+    by index down ``send``."""
     _become_child(parent)
     if prepare is not None:
         try:
@@ -470,10 +481,17 @@ def _serve_when_given(prepare: Callable[[], None] | None, jobs, send, parent: in
     except EOFError:
         return
     try:
-        function, items = pickle.loads(job)
+        function, items, own, shared_from = pickle.loads(job)
     except Exception as exc:  # noqa: BLE001 - a share that cannot be read is that share's failure
-        function, items = _raise, [exc]
-    _run_and_send(lambda: [function(item) for item in items], send)
+        function, items, own, shared_from = _raise, [exc], [0], 1
+
+    def serve() -> dict:
+        done = {index: function(items[index]) for index in own}
+        if shared_from < len(items):  # (never without a shared counter)
+            while (index := _next_item(taken, len(items) - shared_from)) is not None:
+                done[shared_from + index] = function(items[shared_from + index])
+        return done
+    _run_and_send(serve, send)
 
 
 def _raise(exc: BaseException) -> None:

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import tempfile
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, field, replace
@@ -38,7 +39,7 @@ from .errors import (
     TaskError,
     shown,
 )
-from .export import coefficients_document, json_ready, write_json, write_trajectory_csv
+from .export import TrajectoryCsv, coefficients_document, json_ready, write_json
 from .ik import (
     IKSolution,
     closed_form_solver,
@@ -362,17 +363,22 @@ class PlanResult:
             raise OutputError(f"output folder {str(folder)!r} already holds {', '.join(present)}: write replaces "
                               f"nothing; save replaces the planner's own outputs (force=True: anyone's)")
         start = time.perf_counter()
-        # Three independent writers, each holding the GIL most of its time: side by side in processes.
-        work = [partial(self._write_recording, folder), partial(self._write_figure, folder),
-                partial(write_trajectory_csv, folder / "trajectory.csv", self.trajectory, self.task.sample_rate_hz,
-                        self.joint_names, self.torques_at if self.torque_limit is not None else None)]
-        try:
-            if writers is None:
-                map_forked(_call, work, workers=OUTPUT_WRITERS)
-            else:
-                writers.map(_call, work)
-        except WorkerLost as exc:
-            raise OutputError(f"cannot write the outputs: a process writing them died ({exc})") from None
+        table = TrajectoryCsv(folder / "trajectory.csv", self.trajectory, self.task.sample_rate_hz, self.joint_names,
+                              self.torques_at if self.torque_limit is not None else None)
+        with tempfile.TemporaryDirectory(dir=folder, prefix=".trajectory.csv.") as pieces:
+            # Independent writers, each holding the GIL most of its time: side by side in processes, the
+            # recording's and the figure's first (their processes prepared for them), then the CSV's pieces
+            # (its own process's first), each to the first process free.
+            work: list[Callable[[], None]] = [partial(self._write_recording, folder),
+                                              partial(self._write_figure, folder), *table.pieces(Path(pieces))]
+            try:
+                if writers is None:
+                    map_forked(_call, work, workers=OUTPUT_WRITERS)
+                else:
+                    writers.map(_call, work)
+            except WorkerLost as exc:
+                raise OutputError(f"cannot write the outputs: a process writing them died ({exc})") from None
+            table.join(Path(pieces))
         self.timings_s["outputs"] = time.perf_counter() - start
         write_json(folder / "summary.json", self.summary(), digits=SUMMARY_DIGITS)
 
@@ -397,8 +403,8 @@ class PlanResult:
 ROBOT_AWARE_ALGORITHMS = ("default", "nlp", "cuckoo")
 #: The files ``PlanResult.write`` writes.
 OUTPUT_FILES = ("summary.json", "trajectory.csv", "coefficients.json", "profiles.png", "trajectory.rrd")
-#: Processes that write the outputs (``PlanResult.write``): the recording and coefficients, the figure,
-#: the CSV, each in its own (two cores write them in about the time of the slowest two).
+#: Processes that write the outputs (``PlanResult.write``): one prepared for the recording and coefficients,
+#: one for the figure, and one more; the CSV's pieces go to whichever is free.
 OUTPUT_WRITERS = 3
 
 

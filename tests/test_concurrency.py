@@ -240,20 +240,33 @@ def fail_to_prepare():
     raise ImportError("no such library")
 
 
-def test_warm_workers_prepare_first_then_serve_their_shares_in_order(tmp_path):
+def test_warm_workers_prepare_first_then_serve_their_own_item_then_take_the_rest_as_they_are_free(tmp_path):
     """Each child runs its preparation before any work is handed over (the output writers import their
-    libraries while the plan runs), then serves its share; results come back in the items' order."""
+    libraries while the plan runs), then serves the item it prepared for (the recording, the figure), then
+    the items after the children's own to whichever is free (the CSV's pieces): a child busy with a slow
+    own item takes none of them. Results come back in the items' order."""
     import multiprocessing
     with WarmWorkers([mark_prepared(tmp_path), fail_to_prepare, None]) as workers:
-        results = workers.map(square_with_pid, list(range(7)))
+        results = workers.map(square_with_pid_slowly_at_zero, list(range(7)))
         with pytest.raises(RuntimeError, match="runs once"):
             workers.map(square_with_pid, [1])
     assert [value for value, _ in results] == [x * x for x in range(7)]
     pids = [pid for _, pid in results]
-    assert os.getpid() not in pids and len(set(pids)) == 3
-    assert [int(p.name) for p in tmp_path.iterdir()] == [pids[0]]  # child 0 prepared, and served items 0, 3, 6
-    assert pids[0::3] == [pids[0]] * 3
+    assert os.getpid() not in pids and len(set(pids[:3])) == 3
+    assert [int(p.name) for p in tmp_path.iterdir()] == [pids[0]]  # child 0 prepared, and served item 0
+    assert set(pids[3:]) <= {pids[1], pids[2]}  # taken while child 0 slept through item 0
     assert multiprocessing.active_children() == []
+
+
+def test_warm_workers_without_a_shared_counter_serve_fixed_shares(monkeypatch):
+    """Where the platform has no working semaphores, child w serves items w, w + count, ..."""
+    import planner.concurrency as concurrency
+    monkeypatch.setattr(concurrency, "_shared_counter", lambda context: None)
+    with WarmWorkers([None, None, None]) as workers:
+        results = workers.map(square_with_pid, list(range(8)))
+    assert [value for value, _ in results] == [x * x for x in range(8)]
+    pids = [pid for _, pid in results]
+    assert len(set(pids)) == 3 and all(pids[w::3] == [pids[w]] * len(pids[w::3]) for w in range(3))
 
 
 def test_warm_workers_raise_a_childs_error_and_end_unused_children():

@@ -14,9 +14,10 @@ def trajectory():
     return get_family("hybrid").build(np.deg2rad(paper.VIA_POINTS_DEG), paper.DURATIONS_S)
 
 
-def test_csv_written_in_chunks_equals_the_samples(tmp_path, trajectory, monkeypatch):
-    monkeypatch.setattr(export, "CSV_CHUNK_ROWS", 7)  # many chunk boundaries, one ragged last chunk
+def test_csv_written_in_pieces_equals_the_samples(tmp_path, trajectory, monkeypatch):
+    monkeypatch.setattr(export, "CSV_PIECE_ROWS", 7)  # many piece boundaries, one ragged last piece
     write_trajectory_csv(tmp_path / "t.csv", trajectory, 10.0)
+    assert [p.name for p in tmp_path.iterdir()] == ["t.csv"]  # the pieces' folder removed
     times, values = read_trajectory_csv(tmp_path / "t.csv")
     expected_times, expected = trajectory.sample(10.0)
     np.testing.assert_allclose(times, expected_times, rtol=1e-9)

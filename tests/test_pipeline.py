@@ -537,6 +537,26 @@ def test_a_mapping_takes_what_make_task_takes():
         assert plan(document).trajectory.total_time == pytest.approx(expected, rel=1e-12)
 
 
+def test_write_puts_the_csv_pieces_together_in_order_and_leaves_only_the_outputs(tmp_path, monkeypatch):
+    """The CSV's pieces are written by several processes side by side (in any order) and joined under
+    the header: the file is the trajectory's samples, row for row, and nothing but the five outputs is
+    left beside the user's own file."""
+    import planner.export as export
+    from planner.export import read_trajectory_csv
+    from planner.pipeline import OUTPUT_FILES
+
+    monkeypatch.setattr(export, "CSV_PIECE_ROWS", 13)  # many pieces, a ragged last one
+    result = plan(planner.make_task(joints_deg=[[0, 0], [40, -20], [90, 10]], limits=TWO_JOINTS))
+    (tmp_path / "mine.txt").write_text("mine")
+    result.write(tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(OUTPUT_FILES + ("mine.txt",))
+    times, values = read_trajectory_csv(tmp_path / "trajectory.csv")
+    expected_times, expected = result.trajectory.sample(result.task.sample_rate_hz)
+    assert len(times) > 10 * 13
+    np.testing.assert_allclose(times, expected_times, rtol=1e-12)
+    np.testing.assert_allclose(values, expected, rtol=1e-8, atol=1e-9)
+
+
 def test_write_replaces_nothing_and_the_results_arrays_are_read_only(tmp_path):
     """``write`` (public) replaced a user's summary.json in an existing folder, where ``save`` refuses
     it; the via-points and a Cartesian plan's path arrays were writable, and the summary read them."""
