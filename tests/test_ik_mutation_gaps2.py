@@ -389,3 +389,30 @@ def test_a_pose_reachable_outside_a_range_names_a_true_turn_of_a_solution_neares
         q[1] = np.deg2rad(value)
         reaching.append(max(_errors(ur5, q, pose)))
     assert min(reaching) <= 1e-4  # the value is printed to 6 significant digits
+
+
+def test_a_free_solve_landing_outside_the_ranges_is_solved_again_with_clipping_and_kept(panda, monkeypatch):
+    """A redundant arm's free solve can land on the pose's self-motion outside the ranges (no 2 pi turn
+    inside); solved again with clipping from there it slides inside. With one start each, drawn as the
+    search draws them, the seeds whose free solve lands outside (found here with a free solve of our own)
+    still give a solution that reaches the pose (Pinocchio's FK) inside the ranges for some of them: only
+    the second solve can have found it. (Without it, every such search came back empty.)"""
+    _no_closed_form(monkeypatch)
+    q = np.array([0.3, -0.4, 0.2, -2.0, 0.1, 1.8, 0.5])
+    pose = _placement(panda, q)
+    lower, upper = panda.limits.lower, panda.limits.upper
+    kept = 0
+    for seed in range(30):
+        low, high = ik._finite_ranges(panda)
+        start = low + (high - low) * np.random.default_rng(seed).random(panda.dof)
+        free = ik.solve_pose(panda, pose, start, clip=False)
+        turn_inside = all(len(turns) for turns in _turns_in_range(free.q, lower, upper))
+        if max(_errors(panda, free.q, pose)) > 1e-9 or turn_inside:
+            continue  # not reached, or reached with a turn inside the ranges: the first solve suffices
+        found, _, used = ik.pose_solutions(panda, pose, panda.limits, np.random.default_rng(seed), starts=1)
+        assert used == 1
+        for solution in found:
+            assert max(_errors(panda, solution.q, pose)) <= 1e-9
+            assert np.all((solution.q >= lower) & (solution.q <= upper))
+        kept += bool(found)
+    assert kept >= 2
