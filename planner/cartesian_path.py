@@ -224,7 +224,7 @@ def follow_straight_lines(robot: Robot, poses: list[pin.SE3], waypoint_q: np.nda
         # path segment: the least duration an interval of it is held at
         held = {i: least for i, k in found if (least := least_at[k]) is not None}
         spaced = _even_counts(configurations, held)
-        respaced = {i for i, count in spaced.items() if count > counts[i] and 1 / count >= 2 * MIN_FRACTION}
+        respaced = _respaced(spaced, counts)
         added = sum(spaced[i] - counts[i] for i in respaced) + sum(i not in respaced for i, _ in found)
         if len(via) + added > MAX_VIA_POINTS:
             raise TaskError("path.tolerance_m", f"following the straight lines within {1e3 * tolerance_m:g} mm and "
@@ -323,6 +323,15 @@ def _even_counts(configurations: list[list[np.ndarray]], held: dict[int, tuple[f
     step = min(lengths[i] / (len(configurations[i]) - 1) for i in held) / 2
     return {i: max(len(segment) - 1, int(np.ceil(length / step - 1e-9)) if step > 0 else 1)
             for i, (segment, length) in enumerate(zip(configurations, lengths))}
+
+
+def _respaced(spaced: dict[int, int], counts: np.ndarray) -> set[int]:
+    """The path segments whose poses are spaced evenly this round: those whose even count (``spaced``,
+    ``_even_counts``) is above their intervals now (``counts``), and whose spacing 1 / count stays at least
+    2 ``MIN_FRACTION``. The others, held or not, have their straying intervals bisected as usual: one
+    whose even count adds nothing would otherwise be neither respaced nor bisected, and the rounds
+    would stall on it."""
+    return {i for i, count in spaced.items() if count > counts[i] and 1 / count >= 2 * MIN_FRACTION}
 
 
 def _respace(robot: Robot, poses: list[pin.SE3], segment: int, fractions: list[float],

@@ -194,3 +194,65 @@ def test_respaced_poses_put_the_tool_at_their_even_fractions_along_the_line():
         position, rotation = pose_at(u)
         np.testing.assert_allclose(frame.translation, position, atol=1e-8)
         assert (rotation.inv() * Rotation.from_matrix(frame.rotation)).magnitude() <= 1e-8
+
+
+def test_ik_from_the_middle_that_lands_on_another_branch_is_not_taken(monkeypatch):
+    """Where continuation along the line fails (forced here), a pose between two neighbours is solved by IK
+    from their linear interpolation first; that can land on another branch, farther from the interpolation
+    than the neighbours are apart, and is then not taken: IK from a neighbour gives the configuration of
+    the line's continuous motion (computed by continuation before it was switched off)."""
+    import planner.cartesian_path as cp
+    from planner.ik import nearest_turn
+
+    ur5 = Robot.from_example_robot_data("ur5", "tool0")
+    before = np.deg2rad([43.11, 58.55, 92.0, -67.83, -120.72, -9.38])
+    after = np.deg2rad([-13.62, -23.88, 164.14, -46.07, -135.44, -71.87])
+    data = ur5.model.createData()
+    poses = []
+    for q in (before, after):
+        pin.framesForwardKinematics(ur5.model, data, q)
+        poses.append(data.oMf[ur5.model.getFrameId("tool0")].copy())
+    on_line = cp.continued(ur5, poses, 0, before, 0.0, 0.5)
+    middle = (before + after) / 2
+    from_middle = solve_pose(ur5, cp.interpolate_pose(poses[0], poses[1], 0.5), middle)
+    assert from_middle.residual <= 1e-9  # the case: reached, but on another branch
+    landed = nearest_turn(ur5, from_middle.q, middle)
+    assert np.abs(landed - middle).max() > np.abs(after - before).max() and np.abs(landed - on_line).max() > 1
+    monkeypatch.setattr(cp, "continued", lambda *args: None)
+    q = cp._pose_between(ur5, poses, 0, 0.0, 1.0, before, after)
+    np.testing.assert_allclose(q, on_line, atol=1e-6)
+
+
+def test_a_round_that_cannot_be_timed_searches_the_three_largest_joint_changes_for_a_jump(monkeypatch):
+    """Where a round cannot be timed, the intervals of the three largest joint changes above JUMP_RAD are
+    bisected for a jump, largest first (a continuous but large motion can come before the jump); none of
+    the smaller ones, and none at all once a change is no larger than JUMP_RAD."""
+    import planner.cartesian_path as cp
+
+    checked = []
+    monkeypatch.setattr(cp, "_pose_between", lambda robot, poses, segment, low, high, before, after: before)
+    monkeypatch.setattr(cp, "_check_continuous", lambda robot, poses, segment, fractions, ends:
+                        checked.append((segment, fractions[0])))
+    degrees = [[0.0, 30.0, 31.0], [31.0, 40.0, 100.0, 100.5], [100.5, 150.0]]  # changes 30, 1, 9, 60, 0.5, 49.5
+    configurations = [[np.deg2rad([d, 0.0]) for d in segment] for segment in degrees]
+    fractions = [list(np.linspace(0.0, 1.0, len(segment))) for segment in degrees]
+    cp._name_jump(None, [], fractions, configurations)
+    assert checked == [(1, 1 / 3), (2, 0.0), (0, 0.0)]  # 60, 49.5, 30 deg; not the 9 deg one
+    checked.clear()
+    small = [[np.deg2rad([d, 0.0]) for d in (0.0, 0.9, 1.8)]]
+    cp._name_jump(None, [], [[0.0, 0.5, 1.0]], small)
+    assert checked == []
+
+
+def test_only_segments_whose_even_spacing_adds_poses_are_respaced():
+    """A segment whose even count adds no interval (already as fine, or the segment held at its least
+    duration itself) is bisected where it strays, not respaced: respaced, it would keep its poses and skip
+    the bisection, and the rounds would stall. Nor is one whose even spacing would come closer than twice
+    MIN_FRACTION."""
+    from planner.cartesian_path import MIN_FRACTION, _respaced
+
+    counts = np.array([4, 2, 3, 1])
+    spaced = {0: 4, 1: 5, 2: 2, 3: int(np.floor(1 / (2 * MIN_FRACTION))) + 1}
+    assert _respaced(spaced, counts) == {1}
+    assert _respaced({3: int(1 / (2 * MIN_FRACTION))}, counts) == {3}
+    assert _respaced({}, counts) == set()
