@@ -180,6 +180,85 @@ def test_starts_ipopt_solved_but_outside_a_range_fall_back_inside_it(monkeypatch
     assert np.all(positions <= limits.upper + 1e-9) and np.all(positions >= limits.lower - 1e-9)
 
 
+def test_the_walk_back_into_the_ranges_starts_from_the_best_start_outside(monkeypatch):
+    """Where every start ends outside a range, the walk back inside (``_towards``) starts from the solved
+    start of the lowest objective: two starts stubbed to end at two shapes outside the ranges (equal
+    durations, and the same with the second segment 1.3 times as long); the walk is handed the faster."""
+    from planner.timing.result import SearchTracker
+
+    margin = np.deg2rad(10.0)
+    limits = paper.paper_limits().with_overrides(lower=VIA.min(axis=0) - margin, upper=VIA.max(axis=0) + margin)
+    problem = TimingProblem(VIA, "cubic", limits)
+    shapes = np.ones((2, problem.segment_count))
+    shapes[1, 1] = 1.3
+    ends = problem.evaluate(shapes)
+    assert not problem.evaluate_durations(ends.durations).feasible.any()  # both outside a range
+    faster = int(np.argmin(ends.objective))
+    assert ends.objective[1 - faster] > ends.objective[faster] * (1 + 1e-3)
+    calls = []
+
+    def solve(self, start, report=None):
+        calls.append(start)
+        durations = ends.durations[len(calls) - 1] if len(calls) <= 2 else start
+        return nlp.NLPOutcome(durations, 7, 1, "Solve_Succeeded", 0)
+    monkeypatch.setattr(TimingNLP, "solve", solve)
+    monkeypatch.setattr(nlp, "recombination", lambda kept: None)
+    handed = []
+    monkeypatch.setattr(nlp, "_towards", lambda problem, tracker, outside, inside: handed.append(outside))
+    nlp.nlp_refine(problem, {"first": shapes[0], "second": shapes[1]}, SearchTracker(problem))
+    assert len(handed) == 1
+    np.testing.assert_allclose(handed[0], ends.durations[faster], rtol=1e-12)
+
+
+def test_the_walk_back_into_the_ranges_refines_the_first_feasible_step():
+    """``_towards`` searches h(l) = outside^(1 - l) inside^l on a grid of RETREAT_STEPS points, then as finely
+    between the first feasible point and the one before: with a stub tracker feasible from l = 0.3 on, the
+    feasible point nearest it that it offers is within one fine step ((1 / 32)^2 of l), where the first
+    grid's is 0.0125 beyond."""
+    offered = []
+
+    class Stub:
+        def evaluate(self, durations):
+            shares = np.log(durations[:, 0])  # outside = 1, inside = e: l itself
+            offered.extend(shares.tolist())
+            return type("Evaluation", (), {"feasible": shares >= 0.3})()
+
+    nlp._towards(None, Stub(), np.ones(3), np.full(3, np.e))
+    feasible = [share for share in offered if share >= 0.3]
+    assert 0.3 <= min(feasible) <= 0.3 + (1 / (nlp.RETREAT_STEPS - 1)) ** 2
+
+
+def test_hermite7s_implied_rows_hold_with_equality_at_markovs_extremes():
+    """The rows bounding a via-point's acceleration and jerk where they have no limit of their own are
+    Markov's inequality, which Chebyshev polynomials meet with equality: a segment's acceleration A T5(2s - 1)
+    (|a| <= A, dense check) has jerk 50 A / h at its start, and a velocity V T6(2s - 1) an acceleration of
+    72 V / h there: those rows are exactly 1 (a tighter row cuts such a feasible segment off). The velocity's
+    jerk there, V T6''(-1) (2 / h)^2 = 1680 V / h^2, stays within its row (3600 V / h^2) on a segment of
+    0.1 s, where a row in h rather than h^2 would exceed 1 four times over."""
+    from numpy.polynomial import chebyshev as C
+
+    velocity, acceleration, h = 2.0, 5.0, 0.1
+    limits = JointLimits.create(2, velocity=[velocity, velocity], acceleration=[acceleration, np.inf])
+    via = np.array([[0.0, 0.0], [0.1, 0.2], [0.3, 0.1]])
+    problem = TimingProblem(via, "hermite7", limits)
+    formulation = TimingNLP(problem, np.ones(2)).formulation
+    s = np.linspace(0.0, 1.0, 20001)
+    t5, t6 = C.Chebyshev.basis(5, domain=[0, 1]), C.Chebyshev.basis(6, domain=[0, 1])
+    assert np.abs(acceleration * t5(s)).max() == pytest.approx(acceleration)
+    jerk_0 = acceleration * t5.deriv()(0.0) / h  # d/dt = (1 / h) d/ds
+    acceleration_1 = velocity * t6.deriv()(0.0) / h
+    jerk_1 = velocity * t6.deriv(2)(0.0) / h ** 2
+    assert abs(jerk_0) == pytest.approx(50 * acceleration / h)
+    assert abs(acceleration_1) == pytest.approx(72 * velocity / h)
+    knots = [np.zeros((3, 2)), np.array([[0.0, 0.0], [0.0, acceleration_1], [0.0, 0.0]]),
+             np.array([[0.0, 0.0], [jerk_0, jerk_1], [0.0, 0.0]])]
+    rows = formulation._implied_rows(None, knots, np.array([h, h]))
+    values = np.abs(np.concatenate([np.ravel(row) for row, _, _ in rows]))
+    assert len(rows) == 6  # joint 0: its jerk, both sides; joint 1: its acceleration and jerk, both sides
+    assert values.max() == pytest.approx(1.0, rel=1e-12)
+    assert np.sort(values).tolist() == pytest.approx([1680 / 3600] * 2 + [1.0] * 4, rel=1e-12)
+
+
 # ------------------------------------------------------------------ h_max with free via-point states
 
 def test_a_hermite7_segment_on_h_max_stays_within_it():
