@@ -416,3 +416,19 @@ def test_a_free_solve_landing_outside_the_ranges_is_solved_again_with_clipping_a
             assert np.all((solution.q >= lower) & (solution.q <= upper))
         kept += bool(found)
     assert kept >= 2
+
+
+def test_a_hint_that_misses_on_an_arm_without_a_closed_form_falls_back_to_its_random_search(panda):
+    """A Panda (no closed form) waypoint whose hint's solve stalls (clipped at a range bound): the waypoint
+    takes the pose's solution nearest the hint from the numeric search, whose random starts come from the
+    plan's seeded generator. The solution reaches the pose (Pinocchio's FK) within the ranges, the same
+    for the same seed."""
+    q = np.array([0.3, -0.4, 0.2, -2.0, 0.1, 1.8, 0.5])
+    pose = _placement(panda, q)
+    hint = np.deg2rad([45.5, -46.5, -152.4, -173.2, 104.0, 196.2, 35.4])
+    assert ik.solve_pose(panda, pose, hint).residual > 1e-3  # the case: the hint's own solve misses
+    solved = [ik.solve_waypoints(panda, [pose], hints=[hint], seed=4)[0] for _ in range(2)]
+    assert max(_errors(panda, solved[0].q, pose)) <= 1e-9
+    assert np.all((solved[0].q >= panda.limits.lower) & (solved[0].q <= panda.limits.upper))
+    assert solved[0].attempts > 1
+    np.testing.assert_array_equal(solved[0].q, solved[1].q)
