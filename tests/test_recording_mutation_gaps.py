@@ -59,7 +59,7 @@ def rrd_series(path, entity) -> tuple[np.ndarray, np.ndarray]:
 
 
 def test_a_slow_plan_allows_only_the_deviation_its_time_rounding_explains(tmp_path):
-    """Mutant ``8 * np.spacing(largest)`` -> ``8e6 * ...`` (line 641) lived: a sample 1e-10 rad off a plan that moves
+    """Mutant ``8 * np.spacing(largest)`` -> ``8e6 * ...`` lived: a sample 1e-10 rad off a plan that moves
     1e-4 rad/s (a whole nanosecond of time explains 1e-13 rad) is off the trajectory."""
     result = small_result(via=[[1.0, -1.0], [1.0 + 5e-5, -1.0 - 5e-5], [1.0 + 1e-4, -1.0]])
     write_recording(result, tmp_path / "slow.rrd")
@@ -75,7 +75,7 @@ def test_a_slow_plan_allows_only_the_deviation_its_time_rounding_explains(tmp_pa
 
 
 def test_the_largest_ratio_is_the_largest_of_every_joint_and_order(tmp_path, capsys):
-    """Mutant ratio ``.max()`` -> ``.mean()`` (line 642) lived: ``largest_ratio`` (printed by replay --check) is
+    """Mutant ratio ``.max()`` -> ``.mean()`` lived: ``largest_ratio`` (printed by replay --check) is
     the largest max|q^(d)| / limit, found here by dense sampling."""
     result = small_result()
     write_recording(result, tmp_path / "r.rrd")
@@ -105,7 +105,7 @@ def write_like_planner(path, result, times, positions, *, definition=None, rate_
 
 
 def test_an_end_marker_rate_a_little_off_the_samples_rate_is_refused(tmp_path):
-    """Mutant schedule tolerance ``_TIME_QUANTUM_NS`` -> ``1e3 * ...`` (line 959) lived. The planner's 201 samples at
+    """Mutant schedule tolerance ``_TIME_QUANTUM_NS`` -> ``1e3 * ...`` lived. The planner's 201 samples at
     50 Hz under an end marker saying 49.99999 Hz: the count, the ends and every gap (< the marker's period) agree,
     but that rate samples 3.98 s at 3.9800008 s (0.8 us off; a CSV export would follow the marker's rate): the
     recording is not as the planner wrote it."""
@@ -121,7 +121,7 @@ def test_an_end_marker_rate_a_little_off_the_samples_rate_is_refused(tmp_path):
 
 
 def test_a_definition_without_a_basis_is_read_as_power_series(tmp_path):
-    """Mutant default basis ``"power"`` -> ``"trigonometric"`` (line 846) lived: recordings from before the
+    """Mutant default basis ``"power"`` -> ``"trigonometric"`` lived: recordings from before the
     trigonometric family hold no ``basis``; their coefficients are power series, and their samples lie on them."""
     result = small_result()
     document = trajectory_definition(result.trajectory, result.limits, result.joint_names)
@@ -137,7 +137,7 @@ def test_a_definition_without_a_basis_is_read_as_power_series(tmp_path):
 
 
 def test_a_recording_at_a_rate_of_its_own_says_that_rate(tmp_path):
-    """Mutant end marker ``end_marker(times, rate_hz)`` -> ``(times, result.task.sample_rate_hz)`` (line 324)
+    """Mutant end marker ``end_marker(times, rate_hz)`` -> ``(times, result.task.sample_rate_hz)``
     lived: ``write_recording(..., rate_hz=10)`` of a 50 Hz task samples at 10 Hz, and its end marker says so (the
     recording reads back, at 10 Hz)."""
     result = small_result(rate_hz=50.0)
@@ -150,7 +150,7 @@ def test_a_recording_at_a_rate_of_its_own_says_that_rate(tmp_path):
 
 
 def test_profiles_are_decimated_as_soon_as_the_samples_outnumber_profile_samples(tmp_path, monkeypatch):
-    """Mutant ``len(times) > PROFILE_SAMPLES`` -> ``> 2 * PROFILE_SAMPLES`` (line 259) lived: with 201 samples
+    """Mutant ``len(times) > PROFILE_SAMPLES`` -> ``> 2 * PROFILE_SAMPLES`` lived: with 201 samples
     and PROFILE_SAMPLES = 101, each plotted series holds about 101 evenly spaced times (not all 201), at the
     trajectory's values there; trajectory/samples keeps all 201."""
     import rerun as rr
@@ -177,7 +177,7 @@ def summary_table(path) -> dict[str, list[str]]:
 
 
 def test_the_summary_names_the_largest_ratio_of_each_quantity_and_its_joint(tmp_path):
-    """Mutant ``np.argmax(ratios[d])`` -> ``np.argmin`` (line 200) lived: the panel's table holds, per quantity,
+    """Mutant ``np.argmax(ratios[d])`` -> ``np.argmin`` lived: the panel's table holds, per quantity,
     the largest max|q^(d)| / limit over the joints and the joint that reaches it (found by dense sampling)."""
     result = small_result(limits=JointLimits.create(2, velocity=[5.0, 1.0], acceleration=[4.0, 40.0],
                                                     jerk=[100.0, 5.0]))
@@ -206,8 +206,8 @@ def blueprint_views(path) -> dict[str, dict]:
 
 
 def test_each_plot_range_holds_its_curves_and_limits_and_the_legend_is_on_the_position_plot(tmp_path):
-    """Mutants ``range=_position_range(...) if k == 0`` -> ``k == 1`` (line 305) and the position margin
-    ``0.12 * span`` -> ``0.5 * span`` (line 152) lived. Read from the blueprint itself: each derivative plot's y range
+    """Mutants ``range=_position_range(...) if k == 0`` -> ``k == 1`` and the position margin
+    ``0.12 * span`` -> ``0.5 * span`` lived. Read from the blueprint itself: each derivative plot's y range
     holds every value logged in it and its limit lines; the position plot's holds the motion with a margin, the
     motion filling most of it (the far limits, -172 deg, left out); the legend is on the position plot only."""
     result = small_result()
@@ -229,7 +229,7 @@ def test_each_plot_range_holds_its_curves_and_limits_and_the_legend_is_on_the_po
 
 
 def test_the_robot_joints_turn_as_the_trajectory_at_every_sample(tmp_path):
-    """Mutant ``positions[:, planned[joint.name]]`` -> ``positions[::-1, ...]`` (line 406) lived: the robot was
+    """Mutant ``positions[:, planned[joint.name]]`` -> ``positions[::-1, ...]`` lived: the robot was
     counted (one transform per sample) but never compared. Each revolute joint's logged rotation (a quaternion
     about its axis, z for the shoulder, y for the elbow) is the trajectory's angle at the sample's time."""
     import rerun as rr
@@ -268,7 +268,7 @@ def test_the_robot_joints_turn_as_the_trajectory_at_every_sample(tmp_path):
 @pytest.mark.parametrize("span", [[1e-6, 4.0], [0.0, 4.0 - 1e-6]])
 def test_an_end_marker_whose_span_is_a_microsecond_off_the_trajectory_is_named_as_such(tmp_path, span):
     """Mutants of the span check's tolerances, ``abs(span[0]) > 1e-9`` -> ``> 1e-3`` and ``1e-9 * max(1.0, T)`` ->
-    ``1e-3 * ...`` (line 881), lived: the recording was still refused, but as one whose (complete, planner-made)
+    ``1e-3 * ...``, lived: the recording was still refused, but as one whose (complete, planner-made)
     samples start or end at the wrong time. The end marker is what is wrong, and the message says so."""
     result = small_result()
     times, values = result.trajectory.sample(RATE_HZ)

@@ -101,21 +101,24 @@ def test_batches_of_segments_match_one_at_a_time():
 
 # ------------------------------------------------------------------ trajectories of segments (batched)
 
-def random_trajectories(seed: int, batch: int = 4, segments: int = 5, joints: int = 3):
-    """Coefficients (B, S, J, 8) of C3 trajectories through random states, and durations (B, S) from 0.05 to
-    20 s: segments of very different sizes, so that one segment holds each trajectory's extremes."""
-    rng = np.random.default_rng(seed)
-    states = rng.uniform(-3, 3, (batch, segments + 1, joints, 4)) * rng.choice([1.0, 1e-3], (batch, 1, joints, 1))
-    h = np.exp(rng.uniform(np.log(0.05), np.log(20.0), (batch, segments)))
+@st.composite
+def trajectories(draw, batch: int = 4, segments: int = 5, joints: int = 3):
+    """Coefficients (B, S, J, 8) of C3 trajectories through drawn states (each joint of each trajectory at
+    the scale 1 or 1e-3), and durations (B, S) from 0.05 to 20 s: segments of very different sizes, so that
+    one segment holds each trajectory's extremes."""
+    states = draw(arrays(float, (batch, segments + 1, joints, 4), elements=st.floats(-3.0, 3.0)))
+    scales = draw(arrays(float, (batch, 1, joints, 1), elements=st.sampled_from([1.0, 1e-3])))
+    h = np.exp(draw(arrays(float, (batch, segments), elements=st.floats(np.log(0.05), np.log(20.0)))))
+    states = states * scales
     return trig.hermite_coefficients(states[:, :-1], states[:, 1:], h[..., None]), h
 
 
 @settings(max_examples=25)
-@given(st.integers(0, 2 ** 32 - 1), st.sampled_from([(0,), (1, 2, 3), (2,)]))
-def test_trajectory_ranges_are_the_segment_ranges_over_every_segment(seed, orders):
+@given(trajectories(), st.sampled_from([(0,), (1, 2, 3), (2,)]))
+def test_trajectory_ranges_are_the_segment_ranges_over_every_segment(drawn, orders):
     """The pruned solve (only segments whose sampled bound reaches the trajectory's extremes) gives exactly
     the extremes of solving every segment."""
-    a, h = random_trajectories(seed)
+    a, h = drawn
     low, high = trig.trajectory_ranges(a, h, orders)
     every_low, every_high = trig.segment_ranges(a, h, orders)
     scale = np.maximum(np.abs(every_low).max(axis=2), np.abs(every_high).max(axis=2))
@@ -124,9 +127,9 @@ def test_trajectory_ranges_are_the_segment_ranges_over_every_segment(seed, order
 
 
 @settings(max_examples=20)
-@given(st.integers(0, 2 ** 32 - 1))
-def test_segment_extrema_values_are_the_function_at_their_locations_and_bound_samples(seed):
-    a, h = random_trajectories(seed, batch=1, segments=3, joints=2)
+@given(trajectories(batch=1, segments=3, joints=2))
+def test_segment_extrema_values_are_the_function_at_their_locations_and_bound_samples(drawn):
+    a, h = drawn
     locations, values = trig.segment_extrema(a, h, (0, 1))
     for o, order in enumerate((0, 1)):
         for s in range(3):
@@ -140,11 +143,11 @@ def test_segment_extrema_values_are_the_function_at_their_locations_and_bound_sa
 
 
 @settings(max_examples=15)
-@given(st.integers(0, 2 ** 32 - 1), st.sampled_from([1, 2, 3]))
-def test_integral_abs_is_the_integral_of_the_magnitude(seed, order):
+@given(trajectories(batch=1, segments=2, joints=1), st.sampled_from([1, 2, 3]))
+def test_integral_abs_is_the_integral_of_the_magnitude(drawn, order):
     """Against the trapezoidal rule on 400,001 samples per segment (quad misses a sign change 1e-7 s after a
     segment's start)."""
-    a, h = random_trajectories(seed, batch=1, segments=2, joints=1)
+    a, h = drawn
     total = 0.0
     for s in range(2):
         tau = np.linspace(0.0, h[0, s], 400001)
@@ -153,7 +156,9 @@ def test_integral_abs_is_the_integral_of_the_magnitude(seed, order):
 
 
 def test_integral_abs_of_the_position_is_refused():
-    a, h = random_trajectories(0, batch=1)
+    states = np.ones((1, 3, 1, 4))
+    h = np.ones((1, 2))
+    a = trig.hermite_coefficients(states[:, :-1], states[:, 1:], h[..., None])
     with pytest.raises(ValueError, match="order >= 1"):
         trig.integral_abs(a, h, 0)
 
