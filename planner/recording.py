@@ -158,6 +158,22 @@ def _position_range(positions: np.ndarray, limits: JointLimits) -> tuple[float, 
     return low, high
 
 
+#: The width [px] the plots' time axes are laid out for (half of a 1920 px screen), and the position plot's
+#: legend's width: a margin and colour dot, and each character of the longest joint name (Rerun's font).
+PLOT_WIDTH_PX, LEGEND_BASE_PX, LEGEND_CHARACTER_PX = 700.0, 40.0, 7.0
+
+
+def _time_axis(total_time: float, names: list[str]):
+    """Every plot's time axis: from before 0 s, so that the position plot's legend (the joints' names and
+    colours, at its top left) sits over no motion, to ``total_time`` [s]. The lead is the legend's width on a
+    plot ``PLOT_WIDTH_PX`` wide, of the whole axis (at most half of it)."""
+    import rerun.blueprint as rrb
+    legend = (LEGEND_BASE_PX + LEGEND_CHARACTER_PX * max(map(len, names), default=0)) / PLOT_WIDTH_PX
+    lead = total_time * min(legend, 0.5) / (1.0 - min(legend, 0.5))
+    return rrb.TimeAxis(view_range=rrb.TimeRange(start=rrb.TimeRangeBoundary.absolute(seconds=-lead),
+                                                 end=rrb.TimeRangeBoundary.absolute(seconds=total_time)))
+
+
 def _symmetric_range(values: np.ndarray, magnitudes: np.ndarray) -> tuple[float, float]:
     """A derivative's or a torque's plot range, in the units of ``values`` and ``magnitudes`` (its limits):
     +-(the largest value or limit, with a margin), widened to the next power of ten when just short
@@ -316,6 +332,7 @@ def _log_plan(rec, result, rate_hz: float) -> None:
 
     plots = [rrb.TimeSeriesView(origin=f"/profiles/{p}", name=f"{p} [{unit}]",
                                 plot_legend=rrb.PlotLegend(corner="LeftTop", visible=k == 0),
+                                axis_x=_time_axis(trajectory.total_time, names),
                                 axis_y=rrb.ScalarAxis(
                                     range=_position_range(plot_values[0], result.limits) if k == 0
                                     else _symmetric_range(np.rad2deg(plot_values[k]),
@@ -324,6 +341,7 @@ def _log_plan(rec, result, rate_hz: float) -> None:
     if torque_limit is not None:
         plots.append(rrb.TimeSeriesView(origin="/profiles/torque", name="torque [N m]",
                                         plot_legend=rrb.PlotLegend(corner="LeftTop", visible=False),
+                                        axis_x=_time_axis(trajectory.total_time, names),
                                         axis_y=rrb.ScalarAxis(range=_symmetric_range(torques, torque_limit))))
     summary = rrb.TextDocumentView(origin=_SUMMARY, name="summary")
     if result.robot is not None:

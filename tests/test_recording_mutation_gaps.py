@@ -228,6 +228,27 @@ def test_each_plot_range_holds_its_curves_and_limits_and_the_legend_is_on_the_po
             assert (values.max() - values.min()) / (high - low) > 0.7  # the motion fills the plot
 
 
+def test_every_plot_starts_before_zero_by_the_width_of_the_position_plots_legend(tmp_path):
+    """The position plot's legend (top left) covered its first seconds of motion. Every plot's time axis now
+    runs from before 0 s to the trajectory's end, the lead being the legend's share of a 700 px plot: 40 px
+    and 7 px per character of the longest joint name (so longer names lead by more), the same on every plot."""
+    leads = []
+    for names in (["a", "b"], ["shoulder_lift_joint", "b"]):
+        result = small_result()
+        result.joint_names = names
+        path = tmp_path / f"{len(names[0])}.rrd"
+        write_recording(result, path)
+        views = blueprint_views(path)
+        ranges = [view["view_range"] for origin, view in views.items() if origin.startswith("/profiles")]
+        assert len(ranges) == 4 and all(r == ranges[0] for r in ranges)
+        total_ns = result.trajectory.total_time * 1e9
+        assert ranges[0]["end"] == pytest.approx(total_ns, abs=1)
+        share = (40 + 7 * max(map(len, names))) / 700
+        assert -ranges[0]["start"] / (total_ns - ranges[0]["start"]) == pytest.approx(share, rel=1e-6)
+        leads.append(-ranges[0]["start"])
+    assert leads[1] > 2 * leads[0] > 0
+
+
 def test_the_robot_joints_turn_as_the_trajectory_at_every_sample(tmp_path):
     """Mutant ``positions[:, planned[joint.name]]`` -> ``positions[::-1, ...]`` lived: the robot was
     counted (one transform per sample) but never compared. Each revolute joint's logged rotation (a quaternion
