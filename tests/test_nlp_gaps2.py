@@ -501,12 +501,13 @@ def test_a_later_rounds_program_starts_from_the_earlier_solution_row_by_row():
 
 
 def _assert_partitioned(program) -> None:
-    """The program's variables past the core are exactly its certificates' (one owner each), and its
-    constraint rows exactly its spline's, robot's and certificates' rows."""
+    """The program's variables past the core are exactly its certificates' (one owner each) and the robot
+    rows' samples', and its constraint rows exactly its spline's, robot's, samples' and certificates' rows."""
     from itertools import chain
-    variables = sorted(chain.from_iterable(map(list, program.certificate_variables.values())))
+    variables = sorted(chain(chain.from_iterable(map(list, program.certificate_variables.values())),
+                             program.sampled_variables))
     assert variables == list(range(program.core_size, len(program.lbx)))
-    rows = sorted(chain(program.spline_rows, program.robot_rows,
+    rows = sorted(chain(program.spline_rows, program.robot_rows, program.sampled_rows,
                         chain.from_iterable(map(list, program.certificate_rows.values()))))
     assert rows == list(range(len(program.lbg)))
 
@@ -540,7 +541,8 @@ def test_a_later_rounds_program_carries_the_robot_rows_multipliers(tmp_path):
     model = parameters(solver._freeze(coefficients, h)).ravel(order="F")
     core = np.concatenate((np.log(h / solver.scales.time), solver.formulation.state_values(coefficients, h)))
     first = solver._program([])
-    solution = first.solver(x0=core, lbx=first.lbx, ubx=first.ubx, lbg=first.lbg, ubg=first.ubg, p=model)
+    solution = first.solver(x0=first.start(core, np.zeros(0)), lbx=first.lbx, ubx=first.ubx, lbg=first.lbg,
+                            ubg=first.ubg, p=model)
     assert first.solver.stats()["return_status"] in SOLVED
     x = solution["x"].full().ravel()
     every, _ = solver._certify([], coefficients, h, everywhere=True)
@@ -548,7 +550,7 @@ def test_a_later_rounds_program_carries_the_robot_rows_multipliers(tmp_path):
     second = solver._program(every, warm=True)
     _assert_partitioned(first)
     _assert_partitioned(second)
-    given = np.concatenate((core, solver._certificate_start(every, coefficients, h)))
+    given = second.start(core, solver._certificate_start(every, coefficients, h))
     carried = first.carried(solution, second, given)
     lam_g = solution["lam_g"].full().ravel()
     assert len(second.robot_rows) == len(first.robot_rows) > 0 and np.any(lam_g[first.robot_rows])
@@ -556,6 +558,11 @@ def test_a_later_rounds_program_carries_the_robot_rows_multipliers(tmp_path):
     g_first = first.solver.get_function("nlp_g")(x, model).full().ravel()
     g_second = second.solver.get_function("nlp_g")(carried["x0"], model).full().ravel()
     np.testing.assert_allclose(g_second[second.robot_rows], g_first[first.robot_rows], rtol=1e-12, atol=1e-12)
+    # the samples' variables carried with the spline's, their rows' multipliers not (the model is refitted)
+    assert len(second.sampled_rows) == len(first.sampled_rows) == len(first.sampled_variables) > 0
+    np.testing.assert_array_equal(carried["x0"][second.sampled_variables], x[first.sampled_variables])
+    np.testing.assert_allclose(g_second[second.sampled_rows], 0.0, atol=1e-9)
+    assert not np.any(carried["lam_g0"][second.sampled_rows])
 
 
 def test_starts_solved_one_after_another_are_not_begun_after_the_time_limit(monkeypatch):

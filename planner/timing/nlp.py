@@ -382,7 +382,7 @@ class TimingNLP:
         while rounds < MAX_ROUNDS:
             rounds += 1
             program = self._program(certificates, warm=previous is not None)
-            initial = {"x0": np.concatenate((core, self._certificate_start(certificates, coefficients, h)))}
+            initial = {"x0": program.start(core, self._certificate_start(certificates, coefficients, h))}
             if previous is not None and previous[0] is program:  # the robot model refitted
                 initial = {"x0": previous[1]["x"], "lam_x0": previous[1]["lam_x"], "lam_g0": previous[1]["lam_g"]}
             elif previous is not None:  # certificates added
@@ -721,6 +721,7 @@ class _Program:
         extra_lower: list[np.ndarray] = []  # their bounds: 0, or none off a factor's diagonal
         row_count = sum(len(bound) for bound in lower)
         self.spline_rows = np.arange(row_count)
+        self.segments = segments
         self.core_size = segments + spline.states.shape[0]
         #: each certificate's rows and variables (indices in g and x): a later round's program starts from
         #: this one's solution through them (``carried``)
@@ -766,6 +767,7 @@ class _Program:
                           + [np.array([certificates[i].margin for i in chosen])] * inequalities)
                 upper += [np.zeros(len(chosen))] * equalities + [np.full(len(chosen), np.inf)] * inequalities
         model = ca.MX.zeros(0, 1)
+        sampled, sampled_values = ca.MX.zeros(0, 1), ca.MX.zeros(0, 1)
         if nlp.robot is not None:  # the robot model's rows at every sample, its numbers the NLP's parameters
             joints = problem.joint_count
             function = point_rows(ca, nlp.robot, joints)
@@ -778,9 +780,14 @@ class _Program:
                 frozen_at, reach = ca.MX.sym("anchor", joints * sum(counts)), ca.MX.sym("inverse_radius")
                 model = ca.vertcat(model, frozen_at, reach)
                 anchor = ca.reshape(frozen_at, joints, sum(counts))
-            offset = 0
+            offset, sampled_parts, value_parts = 0, [], []
             for block, count in zip(spline.blocks, counts):
-                states = _sampled_states(ca, block, h)
+                # The samples' q, q', q'' are variables of their own, equal to the spline's there: the rows'
+                # derivatives then pass through those equalities rather than through each row's chain
+                # (``robot_rows``' module docstring)
+                states = [ca.MX.sym(f"sampled_{order}", joints, count) for order in range(3)]
+                sampled_parts += [ca.vec(state) for state in states]
+                value_parts += [ca.vec(value) for value in _sampled_states(ca, block, h)]
                 rows.append(ca.vec(function.map(count)(*states, numbers[:, offset:offset + count])))
                 lower.append(np.tile(low, count))
                 upper.append(np.tile(high, count))
@@ -789,7 +796,17 @@ class _Program:
                     lower.append(np.full(joints * count, -1.0))
                     upper.append(np.full(joints * count, 1.0))
                 offset += count
-        self.robot_rows = np.arange(row_count, sum(len(bound) for bound in lower))
+            sampled, sampled_values = ca.vertcat(*sampled_parts), ca.vertcat(*value_parts)
+        robot_end = sum(len(bound) for bound in lower)
+        self.robot_rows = np.arange(row_count, robot_end)
+        # The samples' variables equal the spline's states there. Their rows' multipliers are not carried to a
+        # later round's program (``carried``): they hold the robot rows' gradients of the model that round refits.
+        rows.append(sampled - sampled_values)
+        lower.append(np.zeros(sampled.shape[0]))
+        upper.append(np.zeros(sampled.shape[0]))
+        self.sampled_rows = np.arange(robot_end, robot_end + sampled.shape[0])
+        #: (log durations, spline states) -> the samples' q, q', q'' the robot rows read (none without them)
+        self.sampled_states = ca.Function("sampled_states", [eta, spline.states], [sampled_values])
         certificate_variables = ca.vertcat(*extra) if extra else ca.MX.zeros(0, 1)
         objective = ca.sum1(h)
         if problem.uses_jerk_energy:
@@ -807,9 +824,12 @@ class _Program:
         self.unfloored_lbx = self.lbx.copy()
         if problem.bounds is None:
             self.unfloored_lbx[:segments] = np.log(DURATION_FLOOR)
-        self.ubx = np.concatenate((np.full(segments, log_high), spline.upper, np.full(size, np.inf)))
+        free = np.full(sampled.shape[0], np.inf)
+        self.lbx, self.unfloored_lbx = (np.concatenate((bounds, -free)) for bounds in (self.lbx, self.unfloored_lbx))
+        self.ubx = np.concatenate((np.full(segments, log_high), spline.upper, np.full(size, np.inf), free))
         self.lbg, self.ubg = np.concatenate(lower), np.concatenate(upper)
-        variables = ca.vertcat(eta, spline.states, certificate_variables)
+        variables = ca.vertcat(eta, spline.states, certificate_variables, sampled)
+        self.sampled_variables = np.arange(len(self.lbx) - sampled.shape[0], len(self.lbx))
         remaining = remaining_time()  # IPOPT stops by itself at the time limit
         self.wall_limit = remaining
         # Not expanded to scalar form: building that costs more than it saves, with certificates too
@@ -824,6 +844,13 @@ class _Program:
         single_threaded_blas()
         self.built = time.monotonic()
 
+    def start(self, core: np.ndarray, certificates: np.ndarray) -> np.ndarray:
+        """The variables' start from ``core`` (the log durations over the time scale, then the spline's
+        states) and the certificates' start ``certificates``: the samples' states, where the robot rows
+        have them, are those ``core`` gives (``sampled_states``)."""
+        sampled = np.asarray(self.sampled_states(core[:self.segments], core[self.segments:])).ravel()
+        return np.concatenate((core, certificates, sampled))
+
     def carried(self, solution: dict, program: "_Program", x0: np.ndarray) -> dict:
         """The start of ``program`` (a later round's, with certificates added) from this program's
         ``solution``: its variables and multipliers where both programs have them (the spline's, the
@@ -832,6 +859,8 @@ class _Program:
         start, start_lam_x = np.array(x0, dtype=float), np.zeros(len(x0))
         start_lam_g = np.zeros(len(program.lbg))
         start[:self.core_size], start_lam_x[:self.core_size] = x[:self.core_size], lam_x[:self.core_size]
+        start[program.sampled_variables] = x[self.sampled_variables]  # the same samples in both programs
+        start_lam_x[program.sampled_variables] = lam_x[self.sampled_variables]
         start_lam_g[program.spline_rows] = lam_g[self.spline_rows]
         start_lam_g[program.robot_rows] = lam_g[self.robot_rows]
         for certificate, rows in program.certificate_rows.items():
