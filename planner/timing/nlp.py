@@ -853,8 +853,9 @@ class _Program:
 
     def carried(self, solution: dict, program: "_Program", x0: np.ndarray) -> dict:
         """The start of ``program`` (a later round's, with certificates added) from this program's
-        ``solution``: its variables and multipliers where both programs have them (the spline's, the
-        robot rows', the certificates kept), ``x0``'s values and zero multipliers for the new ones."""
+        ``solution``: its variables and multipliers where both programs have them (the spline's, the robot
+        rows' and their samples' variables, the certificates kept), ``x0``'s values and zero multipliers for
+        the new ones and for the samples' equalities (``__init__``)."""
         x, lam_x, lam_g = (np.asarray(solution[key], dtype=float).ravel() for key in ("x", "lam_x", "lam_g"))
         start, start_lam_x = np.array(x0, dtype=float), np.zeros(len(x0))
         start_lam_g = np.zeros(len(program.lbg))
