@@ -8,6 +8,7 @@ from hypothesis.extra import numpy as hnp
 
 import planner.timing.nlp as nlp
 from planner import paper
+from planner.timing import TimingProblem
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -200,6 +201,20 @@ def pendulum(tmp_path, length=0.5, mass=2.0, inertia=0.03, effort=20.0):
     urdf = tmp_path / "pendulum.urdf"
     urdf.write_text(PENDULUM.format(length=length, mass=mass, inertia=inertia, effort=effort))
     return Robot.from_urdf(urdf, "tip")
+
+
+def record_evaluations(monkeypatch) -> list[np.ndarray]:
+    """Wrap ``TimingProblem.evaluate``: the returned list gets a copy of every batch of candidates (S,)
+    or (B, S) evaluated, in order, so a search's candidates can be checked against its update rules."""
+    batches: list[np.ndarray] = []
+    evaluate = TimingProblem.evaluate
+
+    def recording(self, candidates):
+        batches.append(np.array(candidates, copy=True))
+        return evaluate(self, candidates)
+
+    monkeypatch.setattr(TimingProblem, "evaluate", recording)
+    return batches
 
 
 def record_solves(monkeypatch, certificates: list[int] | None = None) -> list[int]:

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from conftest import record_evaluations
 from planner import InputError, paper
 from planner.timing import TimingProblem, particle_swarm, scipy_differential_evolution
 
@@ -50,14 +51,7 @@ def test_pso_reports_progress_once_per_iteration_with_the_best_so_far():
 
 def pso_candidates(monkeypatch, problem, **settings):
     """PSO's result on ``problem`` and every candidate (rows) it evaluated."""
-    seen = []
-    evaluate = TimingProblem.evaluate
-
-    def recording(self, candidates):
-        seen.append(np.array(candidates, copy=True))
-        return evaluate(self, candidates)
-
-    monkeypatch.setattr(TimingProblem, "evaluate", recording)
+    seen = record_evaluations(monkeypatch)
     result = particle_swarm(problem, **settings)
     return result, np.concatenate(seen)
 

@@ -6,6 +6,7 @@ import warnings
 import numpy as np
 import pytest
 
+from conftest import record_evaluations
 from planner import InputError, JointLimits, paper
 from planner.errors import SettingError
 from planner.timing import (
@@ -176,14 +177,7 @@ def test_multistart_slsqp_refuses_no_start_with_its_message():
 def test_multistart_slsqp_draws_its_starts_from_its_seed_inside_the_search_box(monkeypatch):
     """The starts are one batch drawn uniformly in the search box (bounds [2, 8] s: every start inside them)
     from the seed's generator: equal seeds give equal starts and results, other seeds other starts."""
-    batches = []
-    evaluate = TimingProblem.evaluate
-
-    def recording(self, candidates):
-        batches.append(np.array(candidates, copy=True))
-        return evaluate(self, candidates)
-
-    monkeypatch.setattr(TimingProblem, "evaluate", recording)
+    batches = record_evaluations(monkeypatch)
     problem = _four_via_problem(bounds=(2.0, 8.0))
     lower, upper = problem.search_box()
     runs = []
@@ -258,14 +252,7 @@ def test_pso_refuses_too_many_particles_by_naming_the_setting():
 def _pso_moves(monkeypatch, **settings):
     """A PSO run's evaluations, each (candidates, particles, objective): the candidates evaluated and the
     particles and objectives their repair makes (recomputed here), and the search box."""
-    batches = []
-    evaluate = TimingProblem.evaluate
-
-    def recording(self, candidates):
-        batches.append(np.array(candidates, copy=True))
-        return evaluate(self, candidates)
-
-    monkeypatch.setattr(TimingProblem, "evaluate", recording)
+    batches = record_evaluations(monkeypatch)
     problem = _four_via_problem()
     particle_swarm(problem, seed=3, **settings)
     monkeypatch.undo()
