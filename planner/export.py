@@ -6,7 +6,7 @@ import csv
 import json
 import shutil
 from dataclasses import dataclass
-from functools import partial
+from functools import cached_property, partial
 from pathlib import Path
 from typing import Callable, TextIO
 
@@ -119,9 +119,14 @@ class TrajectoryCsv:
         handle.flush()  # before pieces are copied in underneath the text layer
         return handle
 
+    @cached_property
+    def _times(self) -> np.ndarray:
+        """(N,) every row's time [s] (``PiecewisePolynomial.sample_times``), once per process."""
+        return self.trajectory.sample_times(self.rate_hz)
+
     def _firsts(self) -> range:
         """The first row of each piece."""
-        return range(0, len(self.trajectory.sample_times(self.rate_hz)), CSV_PIECE_ROWS)
+        return range(0, len(self._times), CSV_PIECE_ROWS)
 
     def _write_rows(self, path: Path, first: int) -> None:
         """The piece from row ``first`` (``_rows``) into ``path``."""
@@ -129,7 +134,7 @@ class TrajectoryCsv:
 
     def _rows(self, first: int) -> str:
         """Rows ``first`` to ``first + CSV_PIECE_ROWS`` (or the last) as text."""
-        times = self.trajectory.sample_times(self.rate_hz)[first:first + CSV_PIECE_ROWS]
+        times = self._times[first:first + CSV_PIECE_ROWS]
         values = list(np.rad2deg(self.trajectory.states(times)))
         if self.torques is not None:
             values.append(self.torques(times))

@@ -819,13 +819,12 @@ class _Program:
         size = certificate_variables.shape[0]
         with np.errstate(divide="ignore"):
             log_low, log_high = np.log(h_low), np.log(h_high)  # -inf, +inf where absent
-        self.lbx = np.concatenate((np.full(segments, log_low), spline.lower, *extra_lower))
+        free = np.full(sampled.shape[0], np.inf)  # the samples' variables
+        self.lbx = np.concatenate((np.full(segments, log_low), spline.lower, *extra_lower, -free))
         #: ``lbx`` without the problem's shortest-segment floor (``TimingNLP.solve``)
         self.unfloored_lbx = self.lbx.copy()
         if problem.bounds is None:
             self.unfloored_lbx[:segments] = np.log(DURATION_FLOOR)
-        free = np.full(sampled.shape[0], np.inf)
-        self.lbx, self.unfloored_lbx = (np.concatenate((bounds, -free)) for bounds in (self.lbx, self.unfloored_lbx))
         self.ubx = np.concatenate((np.full(segments, log_high), spline.upper, np.full(size, np.inf), free))
         self.lbg, self.ubg = np.concatenate(lower), np.concatenate(upper)
         variables = ca.vertcat(eta, spline.states, certificate_variables, sampled)
