@@ -134,10 +134,8 @@ def tool_deviation(robot: Robot, trajectory: PiecewisePolynomial, poses: list[pi
     for k in range(intervals):
         count = max(CHECK_SAMPLES, int(np.ceil((times[k + 1] - times[k]) * rate))) + 1
         q = trajectory.evaluate(np.linspace(times[k], times[k + 1], count))
-        frames = [robot.forward_kinematics(qi) for qi in q]
         i = segment_of[k]
-        d, a = segment_deviation(poses[i], poses[i + 1], np.array([f.translation for f in frames]),
-                                 np.array([f.rotation for f in frames]))
+        d, a = segment_deviation(poses[i], poses[i + 1], *robot.tool_placements(q))
         distance[k], angle[k] = d.max(), a.max()
     per_segment = [np.zeros(len(poses) - 1) for _ in range(2)]
     for values, out in zip((distance, angle), per_segment):

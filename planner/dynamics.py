@@ -6,7 +6,7 @@ URDF's ``<inertial>`` give them, plus the rotor inertia Pinocchio's model holds,
 ``model.armature``, on M's diagonal: zero from a URDF, set by example-robot-data
 from some robots' SRDF; no friction); the tool's
 linear and angular speeds from its frame Jacobian, |J_v(q) q'| and |J_w(q) q'|
-(``Robot.frame_jacobian``). Neither is a polynomial in time, so both are checked
+(``Robot.frame_jacobians``). Neither is a polynomial in time, so both are checked
 at samples, not exactly: at ``SAMPLE_RATE_HZ`` and at least
 ``MIN_SAMPLES_PER_SEGMENT`` per segment (both segment ends included), at most
 ``MAX_SAMPLES`` in all (a longer trajectory is sampled more sparsely, evenly).
@@ -105,8 +105,8 @@ def gravity_torques(robot: Robot, q: np.ndarray) -> np.ndarray:
 
 def tool_speeds(robot: Robot, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(K,) linear [m/s] and (K,) angular [rad/s] speed of the tool frame's origin, the norms of
-    J(q) q' (``Robot.frame_jacobian``; a norm does not depend on the axes it is expressed in)."""
-    twists = np.array([robot.frame_jacobian(a) @ b for a, b in zip(q, qd)]).reshape(len(q), 6)
+    J(q) q' (``Robot.frame_jacobians``; a norm does not depend on the axes it is expressed in)."""
+    twists = np.einsum("kij,kj->ki", robot.frame_jacobians(q), qd)
     return np.linalg.norm(twists[:, :3], axis=1), np.linalg.norm(twists[:, 3:], axis=1)
 
 

@@ -441,7 +441,7 @@ def _log_robot(rec, result, times: np.ndarray, positions: np.ndarray):
                                                "xyz", joint.origin_rpy).as_quat()),
                                            parent_frame=joint.parent_link, child_frame=joint.child_link), static=True)
     root = rr.CoordinateFrame(tree.root_link().name)
-    tool = np.array([robot.forward_kinematics(q).translation for q in positions])
+    tool = robot.tool_placements(positions)[0]
     rec.log("scene/tool_path", rr.LineStrips3D([tool], colors=[_TOOL_PATH_COLOUR], radii=0.003), root, static=True)
     rec.log("scene/tool", rr.Points3D.from_fields(colors=[_TOOL_COLOUR], radii=0.018), root, static=True)
     rec.send_columns("scene/tool", indexes=time_index, columns=rr.Points3D.columns(positions=tool))
@@ -463,7 +463,7 @@ def _log_robot(rec, result, times: np.ndarray, positions: np.ndarray):
                 root, static=True)
         inserted = np.setdiff1d(np.arange(len(result.via_points)), waypoints)
         if inserted.size:
-            inserted_points = np.array([robot.forward_kinematics(q).translation for q in result.via_points[inserted]])
+            inserted_points = robot.tool_placements(result.via_points[inserted])[0]
             rec.log("scene/inserted_poses", rr.Points3D(inserted_points, colors=[_INSERTED_COLOUR], radii=0.005,
                                                         show_labels=False), root, static=True)
     body = _robot_points(robot, positions)

@@ -116,6 +116,36 @@ class Robot:
                                             pin.ReferenceFrame.LOCAL)
         return np.reshape(jacobian, (6, self.model.nv))  # one joint: the binding returns a (6,) vector
 
+    def tool_placements(self, q) -> tuple[np.ndarray, np.ndarray]:
+        """(K, 3) positions [m] and (K, 3, 3) rotations of the tool frame in the world for (K, nq) joint
+        positions [rad]: ``forward_kinematics`` point by point, the array checked once."""
+        q = self._configurations(q)
+        positions, rotations = np.zeros((len(q), 3)), np.zeros((len(q), 3, 3))
+        for k, configuration in enumerate(q):
+            pin.framesForwardKinematics(self.model, self.data, configuration)
+            placement = self.data.oMf[self.tool_frame_id]
+            positions[k], rotations[k] = placement.translation, placement.rotation
+        return positions, rotations
+
+    def frame_jacobians(self, q) -> np.ndarray:
+        """(K, 6, nv) ``frame_jacobian`` at each of (K, nq) joint positions [rad], the array checked once."""
+        q = self._configurations(q)
+        return np.array([pin.computeFrameJacobian(self.model, self.data, configuration, self.tool_frame_id,
+                                                  pin.ReferenceFrame.LOCAL) for configuration in q]).reshape(
+            len(q), 6, self.model.nv)
+
+    def _configurations(self, q) -> np.ndarray:
+        """(K, nq) ``q`` as float rows of the model's nq values.
+
+        Raises:
+            InputError: as ``_configuration``, for the array as a whole.
+        """
+        q = finite_array("joint positions", q, 2)
+        if q.shape[1] != self.model.nq:
+            raise InputError(f"joint positions must be rows of {self.model.nq} values for robot {self.name!r}, "
+                             f"got shape {q.shape}")
+        return q
+
     def _configuration(self, q) -> np.ndarray:
         """``q`` as a float array of the model's nq values (Pinocchio's own error is a multi-line C++ one).
 

@@ -32,8 +32,10 @@ def test_a_segment_of_constant_orientation_measures_the_angle_to_that_orientatio
 class _PlanarRobot:
     """Stand-in robot: the tool sits at (q0, q1, 0), turned by q2 about z."""
 
-    def forward_kinematics(self, q):
-        return pin.SE3(pin.exp3(np.array([0.0, 0.0, q[2]])), np.array([q[0], q[1], 0.0]))
+    def tool_placements(self, q):
+        q = np.asarray(q)
+        return (np.column_stack([q[:, 0], q[:, 1], np.zeros(len(q))]),
+                np.array([pin.exp3(np.array([0.0, 0.0, angle])) for angle in q[:, 2]]))
 
 
 class _RecordingTrajectory:

@@ -524,6 +524,30 @@ def test_kinematics_refuse_positions_that_are_not_finite_numbers(q, message):
             call(q)
 
 
+@pytest.mark.parametrize("name, tool", [("ur5", "tool0"), ("panda", "panda_hand_tcp")])
+def test_batched_tool_placements_and_jacobians_are_the_pointwise_ones(name, tool):
+    """``tool_placements`` and ``frame_jacobians`` over rows of positions equal ``forward_kinematics`` and
+    ``frame_jacobian`` row by row; an empty batch is empty; a row of NaN or of the wrong length is refused
+    naming its place."""
+    robot = Robot.from_example_robot_data(name, tool)
+    q = np.random.default_rng(8).uniform(-2.0, 2.0, (5, robot.dof))
+    positions, rotations = robot.tool_placements(q)
+    jacobians = robot.frame_jacobians(q)
+    for k, row in enumerate(q):
+        pose = robot.forward_kinematics(row)
+        np.testing.assert_array_equal(positions[k], pose.translation)
+        np.testing.assert_array_equal(rotations[k], pose.rotation)
+        np.testing.assert_array_equal(jacobians[k], robot.frame_jacobian(row))
+    assert robot.tool_placements(q[:0])[0].shape == (0, 3) and robot.frame_jacobians(q[:0]).shape == (0, 6, robot.dof)
+    bad = q.copy()
+    bad[3, 1] = np.nan
+    for call in (robot.tool_placements, robot.frame_jacobians):
+        with pytest.raises(InputError, match=r"joint positions\[3, 1\] is nan"):
+            call(bad)
+        with pytest.raises(InputError, match=f"rows of {robot.dof} values.*got shape \\(5, {robot.dof - 1}\\)"):
+            call(q[:, 1:])
+
+
 def test_joints_off_the_chain_are_held_inside_their_ranges():
     """The Allegro thumb's range [0.263, 1.396] rad excludes the neutral 0: planning the index finger holds
     it at its lower bound (Rerun clamped it there with a warning on stderr, the model held it at 0)."""

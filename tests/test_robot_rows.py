@@ -15,6 +15,7 @@ from planner.timing.robot_rows import (
     freeze,
     modelled,
     parameters,
+    point_derivatives,
     point_rows,
     row_bounds,
     sample_points,
@@ -171,3 +172,65 @@ def test_the_nlp_samples_are_the_splines_at_the_model_points(family):
         expected = spline_states(coefficients, h, *sample_points(block.segments), problem.family.basis)
         for got, want in zip(found, expected):
             np.testing.assert_allclose(got, want.T, rtol=1e-9, atol=1e-9)
+
+
+def test_the_rows_own_derivatives_are_the_models_by_finite_differences(ur5):
+    """``point_derivatives``' Jacobian, and Hessian of a weighted sum of the rows, at one point (away
+    from where the model was frozen), against central differences of the numeric model and of its
+    Jacobian; the Hessian is the upper triangle."""
+    rng = np.random.default_rng(13)
+    q, qd, qdd = rng.normal(size=(3, 1, 6))
+    constraints = RobotConstraints(ur5, LIMITS, 0.3, 1.5)
+    frozen = freeze(constraints, q, qd, qdd)
+    numbers = parameters(frozen)[:, 0]
+    jacobian, hessian = point_derivatives(ca, point_rows(ca, constraints, 6))
+    weights = rng.normal(size=8)
+    at = np.concatenate([(q + 0.1)[0], 1.3 * qd[0], -0.7 * qdd[0]])
+
+    def numeric(x):
+        torque, velocity = modelled(frozen, x[None, :6], x[None, 6:12], x[None, 12:])
+        return np.concatenate([torque[0] / LIMITS, [np.sum(velocity[0, :3] ** 2) / 0.3 ** 2,
+                                                    np.sum(velocity[0, 3:] ** 2) / 1.5 ** 2]])
+
+    def numeric_jacobian(x):
+        return np.array(ca.densify(jacobian(x[:6], x[6:12], x[12:], numbers)))
+
+    step = 1e-6
+    unit = np.eye(18)
+    differences = np.column_stack([(numeric(at + step * e) - numeric(at - step * e)) / (2 * step) for e in unit])
+    np.testing.assert_allclose(numeric_jacobian(at), differences, rtol=1e-6, atol=1e-6)
+    second = np.column_stack([weights @ (numeric_jacobian(at + step * e) - numeric_jacobian(at - step * e))
+                              / (2 * step) for e in unit])
+    found = np.array(ca.densify(hessian(at[:6], at[6:12], at[12:], numbers, weights)))
+    np.testing.assert_allclose(found, np.triu(second), rtol=1e-6, atol=1e-6)
+    assert np.abs(second[6:12, 6:12]).max() > 1e-3  # the velocities' block is not trivially zero
+
+
+@pytest.mark.parametrize("family", ["hybrid", "hermite7"])
+def test_the_programs_derivative_functions_are_casadis_own(ur5, family, monkeypatch):
+    """The constraint Jacobian and Lagrangian Hessian IPOPT gets (the robot rows' placed from their own
+    derivatives, ``nlp._robot_derivative_functions``) equal those CasADi derives itself of the same
+    program, entry by entry and in sparsity, at random variables, model numbers and multipliers:
+    torque and both speeds, several blocks (hybrid: cubic interior and quintic ends), and the trust
+    region's rows (hermite7)."""
+    from planner.limits import JointLimits
+    from planner.timing import nlp as nlp_module
+    from planner.timing.problem import TimingProblem
+
+    rng = np.random.default_rng(4)
+    via = np.cumsum(0.3 * rng.normal(size=(5, 6)), axis=0)
+    limits = JointLimits.create(6, velocity=np.ones(6), acceleration=np.ones(6), jerk=np.ones(6))
+    problem = TimingProblem(via, family, limits)
+    nlp = nlp_module.TimingNLP(problem, np.ones(problem.segment_count), RobotConstraints(ur5, LIMITS, 0.3, 1.5))
+    assert len(nlp.blocks) >= (2 if family == "hybrid" else 1) and nlp.trusted == (family == "hermite7")
+    placed = nlp_module._Program(nlp, [])
+    monkeypatch.setattr(nlp_module, "_robot_derivative_functions", lambda *args, **kwargs: {})
+    derived = nlp_module._Program(nlp, [])
+    for name in ("nlp_jac_g", "nlp_hess_l"):
+        ours, casadis = placed.solver.get_function(name), derived.solver.get_function(name)
+        arguments = [ca.DM(rng.normal(size=ours.size_in(i))) for i in range(ours.n_in())]
+        for got, want in zip(ours.call(arguments), casadis.call(arguments)):
+            np.testing.assert_allclose(np.array(ca.densify(got)), np.array(ca.densify(want)), rtol=1e-12,
+                                       atol=1e-12)
+            assert got.sparsity() == want.sparsity()
+    assert len(placed.robot_rows) > 0

@@ -107,6 +107,7 @@ from .robot_rows import (
     freeze,
     model_error,
     parameters,
+    point_derivatives,
     point_rows,
     row_bounds,
     sample_points,
@@ -768,6 +769,7 @@ class _Program:
                 upper += [np.zeros(len(chosen))] * equalities + [np.full(len(chosen), np.inf)] * inequalities
         model = ca.MX.zeros(0, 1)
         sampled, sampled_values = ca.MX.zeros(0, 1), ca.MX.zeros(0, 1)
+        mapped_rows: list[_MappedRows] = []
         if nlp.robot is not None:  # the robot model's rows at every sample, its numbers the NLP's parameters
             joints = problem.joint_count
             function = point_rows(ca, nlp.robot, joints)
@@ -780,15 +782,20 @@ class _Program:
                 frozen_at, reach = ca.MX.sym("anchor", joints * sum(counts)), ca.MX.sym("inverse_radius")
                 model = ca.vertcat(model, frozen_at, reach)
                 anchor = ca.reshape(frozen_at, joints, sum(counts))
-            offset, sampled_parts, value_parts = 0, [], []
+            offset = 0
+            sampled_parts: list[Any] = []
+            value_parts: list[Any] = []
             for block, count in zip(spline.blocks, counts):
                 # The samples' q, q', q'' are variables of their own, equal to the spline's there: the rows'
                 # derivatives then pass through those equalities rather than through each row's chain
                 # (``robot_rows``' module docstring)
                 states = [ca.MX.sym(f"sampled_{order}", joints, count) for order in range(3)]
+                mapped_rows.append(_MappedRows(len(rows), sum(len(bound) for bound in lower), variable_count
+                                               + sum(part.shape[0] for part in sampled_parts), states,
+                                               numbers[:, offset:offset + count]))
                 sampled_parts += [ca.vec(state) for state in states]
                 value_parts += [ca.vec(value) for value in _sampled_states(ca, block, h)]
-                rows.append(ca.vec(function.map(count)(*states, numbers[:, offset:offset + count])))
+                rows.append(ca.vec(function.map(count)(*states, mapped_rows[-1].model)))
                 lower.append(np.tile(low, count))
                 upper.append(np.tile(high, count))
                 if nlp.trusted:
@@ -838,8 +845,12 @@ class _Program:
                                    "expand": False}
         if remaining is not None:
             options["ipopt.max_wall_time"] = max(remaining, 1e-3)
+        constraints = ca.vertcat(*rows)
+        if mapped_rows:
+            options.update(_robot_derivative_functions(ca, mapped_rows, function, rows, constraints, variables,
+                                                       objective / scales.time, model))
         self.solver = ca.nlpsol("timing", "ipopt", {"x": variables, "f": objective / scales.time,
-                                                    "g": ca.vertcat(*rows), "p": model}, options)
+                                                    "g": constraints, "p": model}, options)
         single_threaded_blas()
         self.built = time.monotonic()
 
@@ -908,6 +919,70 @@ def _certified_quantities(ca, certificates: list[Certificate], blocks: list[Segm
             term = falling * _pick(ca, ca.vec(block.coefficients[power + order]), flat) * inverse
             f[power] = f[power] + ca.mtimes(spread, term)
     return f
+
+
+@dataclass(frozen=True)
+class _MappedRows:
+    """One block's robot rows in a program (``_Program``): their item in its list of rows and the first of
+    them in g, the first of their samples' variables (q, then q', then q'', each (J, count) column-major),
+    those variables and the robot model's numbers (a column per sample)."""
+
+    item: int
+    first_row: int
+    first_variable: int
+    states: list
+    model: Any
+
+    def entries(self, ca, function, *inputs, rows_of_g: bool) -> tuple[Any, np.ndarray, np.ndarray]:
+        """The nonzeros (a column) of a ``robot_rows.point_derivatives`` ``function`` mapped over the
+        samples, with its further ``inputs`` (the multipliers), and their rows and columns in the program:
+        rows of g (``rows_of_g``; the Jacobian's) or variables (the Hessian's); columns variables."""
+        joints, count = self.states[0].shape
+        pattern = function.sparsity_out(0)
+        local_rows, local_columns = (np.tile(index, count) for index in pattern.get_triplet())
+        points = np.repeat(np.arange(count), pattern.nnz())
+
+        def variable(local: np.ndarray) -> np.ndarray:  # state local of a sample: order local // J, joint local % J
+            return self.first_variable + local // joints * joints * count + local % joints + joints * points
+
+        rows = self.first_row + local_rows + pattern.size1() * points if rows_of_g else variable(local_rows)
+        values = function.map(count)(*self.states, self.model, *inputs)  # point after point, the pattern's nonzeros
+        return ca.sparsity_cast(values, ca.Sparsity.dense(len(rows), 1)), rows, variable(local_columns)
+
+
+def _placed(ca, entries: list[tuple[Any, np.ndarray, np.ndarray]], shape: tuple[int, int]):
+    """A sparse ``shape`` MX of (nonzeros, rows, columns) ``entries`` (``_MappedRows.entries``)."""
+    values = ca.vertcat(*[part[0] for part in entries])
+    rows, columns = (np.concatenate([part[k] for part in entries]) for k in (1, 2))
+    order = np.lexsort((rows, columns))  # CasADi's compressed-column order
+    return ca.sparsity_cast(values[order.tolist()],
+                            ca.Sparsity.triplet(*shape, rows[order].tolist(), columns[order].tolist()))
+
+
+def _robot_derivative_functions(ca, mapped_rows: list[_MappedRows], function, rows: list, constraints, variables,
+                                objective, model) -> dict[str, Any]:
+    """nlpsol's ``jac_g`` and ``hess_lag`` options: IPOPT's constraint Jacobian and Lagrangian Hessian of a
+    program with the robot rows of ``function`` (``robot_rows.point_rows``), theirs from their own symbolic
+    derivatives (``robot_rows.point_derivatives``) mapped over the samples and placed, CasADi's AD for the
+    objective and every other row (``rows``: the program's list of rows; the robot rows' items left out
+    of it as structural zeros; ``constraints``: all of them, g)."""
+    jacobian, hessian = point_derivatives(ca, function)
+    size, count = variables.shape[0], constraints.shape[0]
+    robot_items = {part.item for part in mapped_rows}
+    others = ca.vertcat(*[ca.MX(row.shape[0], 1) if i in robot_items else row for i, row in enumerate(rows)])
+    objective_multiplier, multipliers = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", count)
+    per_point = function.size1_out(0)
+    robot_jacobian = _placed(ca, [part.entries(ca, jacobian, rows_of_g=True) for part in mapped_rows], (count, size))
+    robot_hessian = _placed(ca, [part.entries(ca, hessian, ca.reshape(
+        multipliers[part.first_row:part.first_row + per_point * part.states[0].shape[1]], per_point,
+        part.states[0].shape[1]), rows_of_g=False) for part in mapped_rows], (size, size))
+    others_hessian = ca.hessian(objective_multiplier * objective + ca.dot(multipliers, others), variables)[0]
+    return {"jac_g": ca.Function("nlp_jac_g", [variables, model],
+                                 [constraints, ca.jacobian(others, variables) + robot_jacobian],
+                                 ["x", "p"], ["g", "jac_g_x"]),
+            "hess_lag": ca.Function("nlp_hess_l", [variables, model, objective_multiplier, multipliers],
+                                    [ca.triu(others_hessian) + robot_hessian],
+                                    ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])}
 
 
 def _sampled_states(ca, block: SegmentBlock, h) -> tuple:

@@ -40,8 +40,10 @@ it never starts.
 The rows: one CasADi function of a single sample point (``point_rows``, in
 scalar form), mapped over all of them, with the frozen model's numbers as the
 NLP's parameters (``parameters``), so a new round changes numbers, not the
-program. The samples' q, q', q'' are variables of the NLP of their own, each
-held equal to the spline's there by an equality row (``nlp._Program``): the rows
+program; IPOPT gets their Jacobian and Hessian from the point's own symbolic
+ones, mapped likewise (``point_derivatives``). The samples' q, q', q'' are
+variables of the NLP of their own, each held equal to the spline's there by an
+equality row (``nlp._Program``): the rows
 then depend on them alone, and the chain from the durations and knot states to
 the samples is differentiated once, in those equalities, rather than through
 every row. On ``scripts/bench_robot_limits.py`` (median of 3, 2026-12-07, against
@@ -220,13 +222,13 @@ def modelled(frozen: FrozenModel, q: np.ndarray, qd: np.ndarray,
 def true_values(constraints: RobotConstraints, q: np.ndarray, qd: np.ndarray,
                 qdd: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None]:
     """RNEA torques (P, J) [N m] (``dynamics.joint_torques``) and the rows ``twist_rows`` (P, K) of the
-    tool's twist [m/s, rad/s] in its LOCAL frame, as the model has them (``Robot.frame_jacobian``), at
+    tool's twist [m/s, rad/s] in its LOCAL frame, as the model has them (``Robot.frame_jacobians``), at
     (P, J) q, q', q''."""
     robot = constraints.robot
     torque = joint_torques(robot, q, qd, qdd) if constraints.torque is not None else None
     rows = constraints.twist_rows
-    velocity = (np.array([robot.frame_jacobian(a)[rows] @ b for a, b in zip(q, qd)]).reshape(len(q), len(rows))
-                if constraints.speed_limits else None)
+    velocity = (np.einsum("kij,kj->ki", robot.frame_jacobians(q)[:, rows], qd) if constraints.speed_limits
+                else None)
     return torque, velocity
 
 
@@ -290,6 +292,28 @@ def point_rows(ca, constraints: RobotConstraints, joints: int):
             found.append(ca.sumsqr(velocity[part]) / limit ** 2)
     return ca.Function("robot_rows", [q, qd, qdd, model], [ca.vertcat(*found)],
                        {"is_diff_in": [True, True, True, False]})
+
+
+def point_derivatives(ca, function) -> tuple:
+    """``point_rows``' ``function`` differentiated in scalar form, once: (Jacobian, Hessian), CasADi functions
+    of one sample point, (q, q', q'', model) -> the rows' Jacobian in x = (q, q', q'') (rows x 3J) and
+    (q, q', q'', model, multipliers) -> the upper triangle of sum_r lambda_r d^2 row_r / dx^2 (3J x 3J),
+    each with its own sparsity (torque is linear in q and q'', so its Hessian has the q' block alone).
+
+    The NLP maps them over the samples and places their entries itself (``nlp._robot_derivative_functions``):
+    CasADi's AD of the mapped rows ran one directional derivative of the map per colour of the whole
+    constraint Jacobian (21 on the PUMA paper task), far more arithmetic than the rows' own symbolic
+    Jacobian (1380 operations a point). On the PUMA paper task with torque binding (72 samples;
+    ``scripts/bench_robot_limits.py``), an evaluation of the program's constraint Jacobian took 3.0 ->
+    0.54 ms and of its Lagrangian Hessian 2.1 -> 0.25 ms, IPOPT's time in them over the robot rounds
+    212 -> 69 ms, and planning 0.88 -> 0.67 s."""
+    inputs = function.sx_in()
+    rows = function(*inputs)
+    state = ca.vertcat(*inputs[:3])
+    multipliers = ca.SX.sym("multipliers", rows.shape[0])
+    hessian = ca.triu(ca.hessian(ca.dot(multipliers, rows), state)[0])
+    return (ca.Function("robot_rows_jacobian", inputs, [ca.jacobian(rows, state)]),
+            ca.Function("robot_rows_hessian", [*inputs, multipliers], [hessian]))
 
 
 def row_bounds(constraints: RobotConstraints, joints: int) -> tuple[np.ndarray, np.ndarray]:
