@@ -18,7 +18,9 @@ spacing squared over 8 (the UR5 task with a 0.25 m/s tool cap: 2e-8 of the cap a
 of the spacing's third power.
 
 Meeting them by slowing down (the slowed trajectory is checked at the same
-samples, slowed too, where the law below holds exactly). Running the whole trajectory k >= 1 times slower
+samples, slowed too, where the law below holds exactly, and at its own peaks:
+a torque's peaks move as it slows, gravity staying, and a peak above a limit
+joins the samples the slow-down meets, ``PEAK_ROUNDS``). Running the whole trajectory k >= 1 times slower
 (every duration times k) keeps its path and divides q' by k and q'' by k^2:
 
 * the tool's speeds are divided by k, so k = largest speed / limit meets them;
@@ -61,6 +63,9 @@ MIN_SAMPLES_PER_SEGMENT = 32
 MAX_SAMPLES = 200_000
 #: The slow-down is raised by this relative margin, so that rounding cannot leave a sample a hair above its limit.
 SLOW_DOWN_MARGIN = 1e-9
+#: Most rounds of sampling a slowed trajectory's own peaks (``meet_robot_limits``): slowing down moves a torque's
+#: peaks (gravity stays), and each round adds those found above a limit to the samples the slow-down meets.
+PEAK_ROUNDS = 3
 
 
 @dataclass(frozen=True)
@@ -264,10 +269,9 @@ def check_robot_limits(robot: Robot, trajectory: PiecewisePolynomial, torque_lim
     if times is not None:
         return at(times)
     check = at(check_times(trajectory))
-    limited = [np.abs(value) for value in (check.torque, check.tool_speed, check.tool_angular_speed)
-               if value is not None]
-    peaks = (np.setdiff1d(peak_times(check.times, np.column_stack(limited)), check.times) if limited
-             else np.zeros(0))
+    if all(limit is None for limit in (torque_limit, tool_speed, tool_angular_speed)):
+        return check
+    peaks = np.setdiff1d(peak_times(check.times, _limited(check)), check.times)
     return _merged(check, at(peaks)) if peaks.size else check
 
 
@@ -455,8 +459,48 @@ def meet_robot_limits(robot: Robot, trajectory: PiecewisePolynomial, torque_limi
             below what the other limits need), naming the joint, the torque, the limit and the
             nearest waypoint.
     """
-    check = check_robot_limits(robot, trajectory, torque_limit, tool_speed, tool_angular_speed)
-    kinematic_total = trajectory.total_time
+    limits = (torque_limit, tool_speed, tool_angular_speed)
+    check = check_robot_limits(robot, trajectory, *limits)
+    slowed, final, factor = trajectory, check, 1.0
+    for _ in range(PEAK_ROUNDS):
+        factor = _slow_down(robot, trajectory, check, *limits, waypoint_times)
+        if factor == 1.0:
+            slowed, final = trajectory, check  # its samples hold the peaks already
+            break
+        slowed = trajectory.slowed(factor)  # the same samples, slowed: the scaling law holds at each
+        final = check_robot_limits(robot, slowed, *limits, np.minimum(check.times * factor, slowed.total_time))
+        peaks = np.setdiff1d(peak_times(final.times, _limited(final)), final.times)
+        if not peaks.size:
+            break
+        at_peaks = check_robot_limits(robot, slowed, *limits, peaks)
+        final = _merged(final, at_peaks)
+        if not _exceeds(at_peaks, *limits):
+            break
+        check = _merged(check, check_robot_limits(robot, trajectory, *limits, peaks / factor))
+    return slowed, RobotLimitOutcome(torque_limit, tool_speed, tool_angular_speed, factor, final, trajectory.total_time)
+
+
+def _limited(check: RobotLimitCheck) -> np.ndarray:
+    """(K, M) the magnitudes of the limited quantities at a check's samples: |tau_j|, the speeds."""
+    return np.column_stack([np.abs(value) for value in (check.torque, check.tool_speed, check.tool_angular_speed)
+                            if value is not None])
+
+
+def _exceeds(check: RobotLimitCheck, torque_limit: np.ndarray | None, tool_speed: float | None,
+             tool_angular_speed: float | None) -> bool:
+    """Whether a sample of ``check`` breaks a limit (``limits.ratio_exceeded``)."""
+    pairs = ((check.torque, torque_limit), (check.tool_speed, tool_speed), (check.tool_angular_speed,
+                                                                           tool_angular_speed))
+    return any(bool(ratio_exceeded(np.abs(value) / limit).any()) for value, limit in pairs
+               if value is not None and limit is not None)
+
+
+def _slow_down(robot: Robot, trajectory: PiecewisePolynomial, check: RobotLimitCheck,
+               torque_limit: np.ndarray | None, tool_speed: float | None, tool_angular_speed: float | None,
+               waypoint_times: np.ndarray) -> float:
+    """The smallest slow-down k >= 1 that meets the limits at ``check``'s samples of ``trajectory``,
+    raised by ``SLOW_DOWN_MARGIN`` (1 where every limit holds within the exact check's tolerance)
+    (``meet_robot_limits``, which raises what this does)."""
     factor, allowed = 1.0, math.inf
     if torque_limit is not None:
         assert check.torque is not None
@@ -472,10 +516,5 @@ def meet_robot_limits(robot: Robot, trajectory: PiecewisePolynomial, torque_limi
         assert check.torque is not None and torque_limit is not None
         raise _no_common_slow_down(robot, check, gravity, torque_limit, highest, factor, allowed, waypoint_times)
     if not ratio_exceeded(factor):  # within the exact check's tolerance a limit holds, as the kinematic ones do
-        factor = 1.0
-    else:
-        factor = min(factor * (1 + SLOW_DOWN_MARGIN), allowed)
-        trajectory = trajectory.slowed(factor)  # the same samples, slowed: the scaling law holds at each
-        check = check_robot_limits(robot, trajectory, torque_limit, tool_speed, tool_angular_speed,
-                                   np.minimum(check.times * factor, trajectory.total_time))
-    return trajectory, RobotLimitOutcome(torque_limit, tool_speed, tool_angular_speed, factor, check, kinematic_total)
+        return 1.0
+    return min(factor * (1 + SLOW_DOWN_MARGIN), allowed)
