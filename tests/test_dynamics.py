@@ -12,6 +12,7 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
+from scipy.optimize import minimize_scalar
 
 from conftest import PENDULUM, UR5_FAST, UR5_PICK_POSES, pendulum, puma_dh_frames
 from planner import InfeasibleError, RobotError, RobotFileError, TaskError, paper, plan
@@ -230,17 +231,86 @@ def test_a_slowed_torque_peak_that_moved_between_samples_is_met(tmp_path, limit)
     against its closed form, (I + m l^2) q'' - m g l cos q, on a grid 150 times finer than the check's,
     no torque is above the limit, and the slow-down is no larger than it needs to be (the limits
     are reached). Without the slowed peaks, these excess the limit by 5e-8 to 3e-6."""
-    robot = pendulum(tmp_path)
-    via = np.array([[-1.2], [0.3], [1.4], [0.2]])
-    limits = JointLimits.create(1, velocity=np.array([5.0]), acceleration=np.array([20.0]), jerk=np.array([200.0]))
-    trajectory = TimingProblem(via, "quintic", limits).trajectory(np.array([0.45, 0.35, 0.55]))
+    robot, trajectory = _pendulum_on_a_quintic(tmp_path)
     slowed, met = meet_robot_limits(robot, trajectory, np.array([limit]), None, None, np.zeros(1))
     assert met.slow_down > 1.1
+    def closed_form(times):
+        return (0.03 + 2.0 * 0.5 ** 2) * slowed.evaluate(times, 2) - 2.0 * 9.81 * 0.5 * np.cos(slowed.evaluate(times))
+
     times = np.linspace(0.0, slowed.total_time, 150 * len(met.check.times))
-    q, qdd = slowed.evaluate(times), slowed.evaluate(times, 2)
-    torque = (0.03 + 2.0 * 0.5 ** 2) * qdd - 2.0 * 9.81 * 0.5 * np.cos(q)
+    torque = closed_form(times)
     assert np.abs(torque).max() <= limit * (1 + 1e-9)
     assert np.abs(torque).max() >= limit * (1 - 1e-6)
+    # The check reported holds the slowed peak itself (found here to 1e-13 s by a bounded search).
+    k = int(np.abs(torque).argmax())
+    peak = minimize_scalar(lambda t: -np.abs(closed_form(np.array([t]))).max(), method="bounded",
+                           bounds=(times[k - 1], times[k + 1]), options={"xatol": 1e-13})
+    assert np.abs(met.check.torque).max() >= -peak.fun * (1 - 1e-11)
+
+
+def test_peak_times_of_ties_flat_columns_and_three_samples():
+    """The smallest cases by hand: three samples (0, 1, 3) of -t^2 / 2 + 3 t / 2 peak at 1.5; a maximum
+    tied with its left neighbour (1, 1, 0 at 0, 1, 2) at 0.5; a flat column has none."""
+    np.testing.assert_allclose(peak_times(np.array([0.0, 1.0, 3.0]), np.array([[0.0], [1.0], [0.0]])), [1.5])
+    np.testing.assert_allclose(peak_times(np.array([0.0, 1.0, 2.0]), np.array([[1.0], [1.0], [0.0]])), [0.5])
+    assert peak_times(np.array([0.0, 1.0, 2.0]), np.ones((3, 1))).size == 0
+
+
+def _pendulum_on_a_quintic(tmp_path):
+    """The pendulum and quintic trajectory of the test below (its torque peaks at 15.6 N m)."""
+    robot = pendulum(tmp_path)
+    limits = JointLimits.create(1, velocity=np.array([5.0]), acceleration=np.array([20.0]), jerk=np.array([200.0]))
+    via = np.array([[-1.2], [0.3], [1.4], [0.2]])
+    return robot, TimingProblem(via, "quintic", limits).trajectory(np.array([0.45, 0.35, 0.55]))
+
+
+def test_the_slowed_check_covers_the_whole_slowed_trajectory_in_order(tmp_path, monkeypatch):
+    """After a slow-down the check reported holds the default samples, slowed, up to the new end, each
+    time once and in order, even where a peak falls on a sample already taken."""
+    robot, trajectory = _pendulum_on_a_quintic(tmp_path)
+    slowed, met = meet_robot_limits(robot, trajectory, np.array([10.0]), None, None, np.zeros(1))
+    assert met.check.times[-1] == pytest.approx(slowed.total_time, rel=1e-12)
+    default = check_robot_limits(robot, trajectory, np.array([10.0]), None, None).times
+    assert np.all(np.isin(np.minimum(default * met.slow_down, slowed.total_time), met.check.times))
+    from planner import dynamics
+    monkeypatch.setattr(dynamics, "peak_times", lambda times, values: times[1:2])  # a peak on a sample
+    for check in (check_robot_limits(robot, trajectory, np.array([10.0]), None, None),
+                  meet_robot_limits(robot, trajectory, np.array([10.0]), None, None, np.zeros(1))[1].check):
+        assert np.all(np.diff(check.times) > 0)
+
+
+def test_a_trajectory_within_its_limits_is_kept_as_it_is(tmp_path):
+    """No slow-down where every sample holds (the very trajectory, its default samples), nor where one
+    exceeds a limit by less than the exact check's tolerance (1e-9)."""
+    robot, trajectory = _pendulum_on_a_quintic(tmp_path)
+    default = check_robot_limits(robot, trajectory, np.array([100.0]), None, None)
+    for limit in (100.0, np.abs(default.torque).max() / (1 + 5e-10)):
+        slowed, met = meet_robot_limits(robot, trajectory, np.array([limit]), None, None, np.zeros(1))
+        assert slowed is trajectory and met.slow_down == 1.0
+        np.testing.assert_array_equal(met.check.times, default.times)
+
+
+def test_the_slow_down_is_the_laws_raised_by_its_margin_within_what_gravity_allows(tmp_path, monkeypatch):
+    """``_slow_down`` returns the largest lowest slow-down over the samples times 1 + SLOW_DOWN_MARGIN,
+    but never beyond the smallest highest (where gravity needs the motion); equal, that one exactly."""
+    from planner import dynamics
+    robot, trajectory = _pendulum_on_a_quintic(tmp_path)
+    check = check_robot_limits(robot, trajectory, np.array([10.0]), None, None)
+    for lowest, highest, expected in ((1.5, np.inf, 1.5 * (1 + dynamics.SLOW_DOWN_MARGIN)), (1.5, 1.5, 1.5),
+                                      (1.5, 1.5 * (1 + 1e-12), 1.5 * (1 + 1e-12))):
+        monkeypatch.setattr(dynamics, "torque_slow_down", lambda torque, gravity, limit, low=lowest, high=highest: (
+            np.full(torque.shape, low), np.full(torque.shape, high)))
+        assert dynamics._slow_down(robot, trajectory, check, np.array([10.0]), None, None,
+                                   np.zeros(1)) == expected
+
+
+def test_a_limit_is_exceeded_by_any_quantity_beyond_the_tolerance():
+    """``_exceeds``: one quantity over its limit is enough; 5e-10 over is within the tolerance."""
+    from planner.dynamics import RobotLimitCheck, _exceeds
+    check = RobotLimitCheck(np.zeros(1), np.array([[2.0]]), np.array([0.1]), None)
+    assert _exceeds(check, np.array([1.0]), 1.0, None)
+    assert not _exceeds(RobotLimitCheck(np.zeros(1), np.array([[1 + 5e-10]]), None, None), np.array([1.0]), None,
+                        None)
 
 
 def paper_task(**limits) -> dict:
@@ -357,6 +427,7 @@ def test_gravity_beyond_a_torque_limit_names_the_joint_and_the_waypoint():
         plan(paper_task(torque_nm=efforts))
     assert (caught.value.joint, caught.value.quantity, caught.value.limit) == (1, "torque", 30.0)
     assert abs(caught.value.value) > 30
+    assert "no slow-down helps" in str(caught.value) and "inf times" not in str(caught.value)
 
 
 def test_gravity_beyond_a_torque_limit_where_the_arm_rests_is_named_before_any_timing(monkeypatch):

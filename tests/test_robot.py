@@ -524,20 +524,30 @@ def test_kinematics_refuse_positions_that_are_not_finite_numbers(q, message):
             call(q)
 
 
-@pytest.mark.parametrize("name, tool", [("ur5", "tool0"), ("panda", "panda_hand_tcp")])
+@pytest.mark.parametrize("name, tool", [("ur5", "tool0"), ("ur5", "wrist_3_joint"), ("panda", "panda_hand_tcp")])
 def test_batched_tool_placements_and_jacobians_are_the_pointwise_ones(name, tool):
     """``tool_placements`` and ``frame_jacobians`` over rows of positions equal ``forward_kinematics`` and
-    ``frame_jacobian`` row by row; an empty batch is empty; a row of NaN or of the wrong length is refused
-    naming its place."""
+    ``frame_jacobian`` row by row, and Pinocchio's own of the named frame (a joint's frame too, whose
+    placement differs from the frame before it); an empty batch is empty; a row of NaN, rows of the wrong
+    length or a single row not given as one are refused naming what is wrong."""
     robot = Robot.from_example_robot_data(name, tool)
     q = np.random.default_rng(8).uniform(-2.0, 2.0, (5, robot.dof))
     positions, rotations = robot.tool_placements(q)
     jacobians = robot.frame_jacobians(q)
+    model, data = robot.model, robot.model.createData()
+    frame = model.getFrameId(tool)
     for k, row in enumerate(q):
         pose = robot.forward_kinematics(row)
         np.testing.assert_array_equal(positions[k], pose.translation)
         np.testing.assert_array_equal(rotations[k], pose.rotation)
         np.testing.assert_array_equal(jacobians[k], robot.frame_jacobian(row))
+        pin.framesForwardKinematics(model, data, row)
+        np.testing.assert_allclose(positions[k], data.oMf[frame].translation, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(jacobians[k], pin.computeFrameJacobian(model, data, row, frame,
+                                                                           pin.ReferenceFrame.LOCAL), atol=1e-12)
+    for call in (robot.tool_placements, robot.frame_jacobians):
+        with pytest.raises(InputError, match="must have 2 dimension"):
+            call(q[0])
     assert robot.tool_placements(q[:0])[0].shape == (0, 3) and robot.frame_jacobians(q[:0]).shape == (0, 6, robot.dof)
     bad = q.copy()
     bad[3, 1] = np.nan
