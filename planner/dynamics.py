@@ -499,8 +499,12 @@ def _slow_down(robot: Robot, trajectory: PiecewisePolynomial, check: RobotLimitC
                torque_limit: np.ndarray | None, tool_speed: float | None, tool_angular_speed: float | None,
                waypoint_times: np.ndarray) -> float:
     """The smallest slow-down k >= 1 that meets the limits at ``check``'s samples of ``trajectory``,
-    raised by ``SLOW_DOWN_MARGIN`` (1 where every limit holds within the exact check's tolerance)
-    (``meet_robot_limits``, which raises what this does)."""
+    raised by ``SLOW_DOWN_MARGIN`` but never past a bound gravity sets (1 where every limit holds
+    within the exact check's tolerance).
+
+    Raises:
+        InfeasibleError: as ``meet_robot_limits`` says.
+    """
     factor, allowed = 1.0, math.inf
     if torque_limit is not None:
         assert check.torque is not None
