@@ -132,10 +132,16 @@ def gravity_torques(robot: Robot, q: np.ndarray) -> np.ndarray:
     return np.array([pin.computeGeneralizedGravity(model, data, a) for a in q]).reshape(len(q), model.nv)
 
 
+def tool_twists(robot: Robot, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+    """(K, 6) the tool frame's twist J(q) q' in its LOCAL frame [m/s, then rad/s] at (K, J) positions
+    [rad] and velocities [rad/s] (``Robot.frame_jacobians``)."""
+    return np.einsum("kij,kj->ki", robot.frame_jacobians(q), qd)
+
+
 def tool_speeds(robot: Robot, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(K,) linear [m/s] and (K,) angular [rad/s] speed of the tool frame's origin, the norms of
-    J(q) q' (``Robot.frame_jacobians``; a norm does not depend on the axes it is expressed in)."""
-    twists = np.einsum("kij,kj->ki", robot.frame_jacobians(q), qd)
+    ``tool_twists`` (a norm does not depend on the axes it is expressed in)."""
+    twists = tool_twists(robot, q, qd)
     return np.linalg.norm(twists[:, :3], axis=1), np.linalg.norm(twists[:, 3:], axis=1)
 
 
@@ -271,7 +277,7 @@ def check_robot_limits(robot: Robot, trajectory: PiecewisePolynomial, torque_lim
     check = at(check_times(trajectory))
     if all(limit is None for limit in (torque_limit, tool_speed, tool_angular_speed)):
         return check
-    peaks = np.setdiff1d(peak_times(check.times, _limited(check)), check.times)
+    peaks = _unsampled_peaks(check)
     return _merged(check, at(peaks)) if peaks.size else check
 
 
@@ -469,7 +475,7 @@ def meet_robot_limits(robot: Robot, trajectory: PiecewisePolynomial, torque_limi
             break
         slowed = trajectory.slowed(factor)  # the same samples, slowed: the scaling law holds at each
         final = check_robot_limits(robot, slowed, *limits, np.minimum(check.times * factor, slowed.total_time))
-        peaks = np.setdiff1d(peak_times(final.times, _limited(final)), final.times)
+        peaks = _unsampled_peaks(final)
         if not peaks.size:
             break
         at_peaks = check_robot_limits(robot, slowed, *limits, peaks)
@@ -480,10 +486,12 @@ def meet_robot_limits(robot: Robot, trajectory: PiecewisePolynomial, torque_limi
     return slowed, RobotLimitOutcome(torque_limit, tool_speed, tool_angular_speed, factor, final, trajectory.total_time)
 
 
-def _limited(check: RobotLimitCheck) -> np.ndarray:
-    """(K, M) the magnitudes of the limited quantities at a check's samples: |tau_j|, the speeds."""
-    return np.column_stack([np.abs(value) for value in (check.torque, check.tool_speed, check.tool_angular_speed)
-                            if value is not None])
+def _unsampled_peaks(check: RobotLimitCheck) -> np.ndarray:
+    """``peak_times`` of the limited quantities' magnitudes (|tau_j|, the speeds) at ``check``'s samples,
+    but those already sampled."""
+    limited = np.column_stack([np.abs(value) for value in (check.torque, check.tool_speed,
+                                                          check.tool_angular_speed) if value is not None])
+    return np.setdiff1d(peak_times(check.times, limited), check.times)
 
 
 def _exceeds(check: RobotLimitCheck, torque_limit: np.ndarray | None, tool_speed: float | None,

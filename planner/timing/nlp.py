@@ -933,11 +933,16 @@ class _MappedRows:
     states: list
     model: Any
 
+    @property
+    def count(self) -> int:
+        """The samples."""
+        return self.states[0].shape[1]
+
     def entries(self, ca, function, *inputs, rows_of_g: bool) -> tuple[Any, np.ndarray, np.ndarray]:
         """The nonzeros (a column) of a ``robot_rows.point_derivatives`` ``function`` mapped over the
         samples, with its further ``inputs`` (the multipliers), and their rows and columns in the program:
         rows of g (``rows_of_g``; the Jacobian's) or variables (the Hessian's); columns variables."""
-        joints, count = self.states[0].shape
+        joints, count = self.states[0].shape[0], self.count
         pattern = function.sparsity_out(0)
         local_rows, local_columns = (np.tile(index, count) for index in pattern.get_triplet())
         points = np.repeat(np.arange(count), pattern.nnz())
@@ -974,8 +979,8 @@ def _robot_derivative_functions(ca, mapped_rows: list[_MappedRows], function, ro
     per_point = function.size1_out(0)
     robot_jacobian = _placed(ca, [part.entries(ca, jacobian, rows_of_g=True) for part in mapped_rows], (count, size))
     robot_hessian = _placed(ca, [part.entries(ca, hessian, ca.reshape(
-        multipliers[part.first_row:part.first_row + per_point * part.states[0].shape[1]], per_point,
-        part.states[0].shape[1]), rows_of_g=False) for part in mapped_rows], (size, size))
+        multipliers[part.first_row:part.first_row + per_point * part.count], per_point, part.count),
+                                              rows_of_g=False) for part in mapped_rows], (size, size))
     others_hessian = ca.hessian(objective_multiplier * objective + ca.dot(multipliers, others), variables)[0]
     return {"jac_g": ca.Function("nlp_jac_g", [variables, model],
                                  [constraints, ca.jacobian(others, variables) + robot_jacobian],

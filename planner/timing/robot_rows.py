@@ -43,10 +43,10 @@ NLP's parameters (``parameters``), so a new round changes numbers, not the
 program; IPOPT gets their Jacobian and Hessian from the point's own symbolic
 ones, mapped likewise (``point_derivatives``). The samples' q, q', q'' are
 variables of the NLP of their own, each held equal to the spline's there by an
-equality row (``nlp._Program``): the rows
-then depend on them alone, and the chain from the durations and knot states to
-the samples is differentiated once, in those equalities, rather than through
-every row. On ``scripts/bench_robot_limits.py`` (median of 3, 2026-12-07, against
+equality row (``nlp._Program``): the rows then depend on them alone, and the
+chain from the durations and knot states to the samples is differentiated once,
+in those equalities, rather than through every row. On
+``scripts/bench_robot_limits.py`` (median of 3, 2026-12-07, against
 the same code without them): PUMA with torque binding 1.23 -> 0.88 s, with the
 0.25 m/s and 30 deg/s tool caps 1.60 -> 1.39 s and 1.50 -> 1.44 s, UR5 with torque
 binding 1.12 -> 1.01 s; every total the same; ``hermite7``'s cases 1.3 to 1.9
@@ -75,7 +75,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from ..dynamics import joint_torques
+from ..dynamics import joint_torques, tool_twists
 from ..read_only import ReadOnlyArrays, freeze_arrays
 from ..robot import Robot
 from ..splines import segment_values
@@ -222,13 +222,12 @@ def modelled(frozen: FrozenModel, q: np.ndarray, qd: np.ndarray,
 def true_values(constraints: RobotConstraints, q: np.ndarray, qd: np.ndarray,
                 qdd: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None]:
     """RNEA torques (P, J) [N m] (``dynamics.joint_torques``) and the rows ``twist_rows`` (P, K) of the
-    tool's twist [m/s, rad/s] in its LOCAL frame, as the model has them (``Robot.frame_jacobians``), at
+    tool's twist [m/s, rad/s] in its LOCAL frame, as the model has them (``dynamics.tool_twists``), at
     (P, J) q, q', q''."""
     robot = constraints.robot
     torque = joint_torques(robot, q, qd, qdd) if constraints.torque is not None else None
     rows = constraints.twist_rows
-    velocity = (np.einsum("kij,kj->ki", robot.frame_jacobians(q)[:, rows], qd) if constraints.speed_limits
-                else None)
+    velocity = tool_twists(robot, q, qd)[:, rows] if constraints.speed_limits else None
     return torque, velocity
 
 
