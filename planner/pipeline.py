@@ -401,6 +401,9 @@ class PlanResult:
 #: those slow the kinematic optimum down, unless their setting ``polish`` turns their NLP off
 #: (``retimes_in_nlp``); the others end there: they have no NLP of their own.
 ROBOT_AWARE_ALGORITHMS = ("default", "nlp", "cuckoo")
+#: The dense check's slow-down of the NLP's robot-aware timing above which it is timed once more with the
+#: robot-aware limits tightened by it (the NLP's samples missed peaks between them by that much).
+RETIMED_SLOW_DOWN = 1.01
 #: The files ``PlanResult.write`` writes.
 OUTPUT_FILES = ("summary.json", "trajectory.csv", "coefficients.json", "profiles.png", "trajectory.rrd")
 #: Processes that write the outputs (``PlanResult.write``): one prepared for the recording and coefficients,
@@ -1106,6 +1109,14 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
             progress.note(f"slowed down {met.slow_down:.6g} times; timing again with the torque and tool-speed "
                           f"limits in the NLP")
             found = retime(constraints, result.durations * met.slow_down)
+            if found is not None and found[1].slow_down > RETIMED_SLOW_DOWN and \
+                    not _beyond_h_max(found[0].durations, settings["bounds"]):
+                factor = found[1].slow_down
+                progress.note(f"slowed down {factor:.6g} times, the NLP's timing missed peaks between its samples; "
+                              f"timing again with the torque and tool-speed limits {factor:.6g} times tighter")
+                tighter = retime(_tightened(constraints, factor), found[0].durations)
+                if tighter is not None and tighter[0].total_time < found[0].total_time:
+                    found = tighter
             if found is not None and _beyond_h_max(found[0].durations, settings["bounds"]):
                 # The dense check slowed the NLP's timing (its samples are sparser) past h_max: once more, with
                 # the robot limits tightened by that slow-down, so that the dense check needs little or none;

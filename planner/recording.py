@@ -18,8 +18,10 @@ What a recording holds (timeline ``time``, in seconds):
   the joint in every plot; ``.../limits/<joint>/{upper,lower}``: its limits as thin dashed lines
   (NaN gaps) of the same colour and name, so that the legend lists each joint once and no limit;
   for positions, via-point markers ``profiles/position/via_points/<joint>`` (same colour and name).
+  With torque limits, ``profiles/torque/<joint>``: each joint's torque over its limit (dimensionless,
+  the limits at +-1), so that the joint that binds shows whatever its limit in N m.
 * ``summary``: a markdown text (task, robot, family, optimizer, total time, largest ratio per
-  quantity, feasibility).
+  quantity and its joint, the torque's and the tool speeds' where the task limits them, feasibility).
 * ``trajectory/samples``: joint positions [rad] at every sample (float64),
   and static ``trajectory/definition``: the piecewise polynomial (durations,
   coefficients, via knots) and the limits in SI units, so ``planner replay
@@ -208,13 +210,17 @@ def _log_profile(rec, profile: str, name: str, colour, index: list, values: np.n
 
 def plan_summary(result) -> str:
     """The markdown text of the summary panel: task, robot, family, optimizer, total time, the largest
-    constraint ratio of each quantity (and its joint), feasibility."""
+    constraint ratio of each quantity and its joint (the torque's, the tool's linear and angular speed's
+    after the kinematic ones, where the task limits them: ``RobotLimitOutcome.summary``), feasibility."""
     figures = kinematic_figures(result.trajectory)
     ratios = np.nan_to_num(figures.ratios(result.limits))
     names = result.joint_names
     robot = getattr(result, "robot", None)
     feasible = bool(result.feasible)
-    largest = [int(np.argmax(ratios[d])) for d in range(len(QUANTITIES))]
+    columns = [(quantity, ratios[d, j], _markdown_text(names[j]))
+               for d, quantity in enumerate(QUANTITIES) for j in [int(np.argmax(ratios[d]))]]
+    columns += _robot_limit_columns(getattr(result, "robot_limits", None), names)
+    torque_note = " Torque: each joint's over its limit (+-1)." if any(c[0] == "torque" for c in columns) else ""
     return "\n".join([
         f"### {_markdown_text(result.task.name)}: {'feasible' if feasible else 'NOT feasible (a limit is exceeded)'}",
         "",
@@ -223,13 +229,30 @@ def plan_summary(result) -> str:
         f"**optimizer** {_markdown_text(optimizer_name(result))}"
         f" · **total time** {seconds_text(result.trajectory.total_time)} s",
         "",
-        "| largest ratio | " + " | ".join(QUANTITIES) + " |",
-        "|---|" + "---|" * len(QUANTITIES),
-        "| max / limit | " + " | ".join(f"{ratios[d, j]:.3f}" for d, j in enumerate(largest)) + " |",
-        "| joint | " + " | ".join(_markdown_text(names[j]) for j in largest) + " |",
+        "| largest ratio | " + " | ".join(quantity for quantity, _, _ in columns) + " |",
+        "|---|" + "---|" * len(columns),
+        "| max / limit | " + " | ".join(f"{ratio:.3f}" for _, ratio, _ in columns) + " |",
+        "| joint | " + " | ".join(joint for _, _, joint in columns) + " |",
         "",
-        "Plots in degrees; dashed lines: each joint's limits, in its colour.",
+        f"Plots in degrees; dashed lines: each joint's limits, in its colour.{torque_note}",
     ])
+
+
+def _robot_limit_columns(outcome, names: list[str]) -> list[tuple[str, float, str]]:
+    """The summary table's columns (quantity, largest ratio, joint) for the robot-aware limits a plan met
+    (``outcome``: its ``RobotLimitOutcome``, or None): torque (the joint of the largest ratio), the tool's
+    linear and angular speed (the tool, not a joint)."""
+    if outcome is None:
+        return []
+    figures = outcome.summary()
+    columns = []
+    if "torque_ratio" in figures:
+        joint = int(np.argmax(figures["torque_ratio"]))
+        columns.append(("torque", float(figures["torque_ratio"][joint]), _markdown_text(names[joint])))
+    for key, quantity in (("tool_speed_ratio", "tool speed"), ("tool_angular_speed_ratio", "tool angular speed")):
+        if key in figures:
+            columns.append((quantity, float(figures[key]), "(tool)"))
+    return columns
 
 
 def optimizer_name(result) -> str:
@@ -317,11 +340,11 @@ def _log_plan(rec, result, rate_hz: float) -> None:
             _log_profile(rec, profile, name, joint_colour(j), plot_index, np.rad2deg(plot_values[k, :, j]),
                          np.rad2deg((bounds[k][0][j], bounds[k][1][j])), trajectory.total_time)
     torque_limit = getattr(result, "torque_limit", None)
-    if torque_limit is not None:  # a fifth plot, in N m, as the others
-        torques = result.torques_at(plot_times)
+    if torque_limit is not None:  # a fifth plot: each joint's torque over its limit, the limits at +-1
+        torque_ratios = result.torques_at(plot_times) / torque_limit
         for j, name in enumerate(names):
-            _log_profile(rec, "torque", name, joint_colour(j), plot_index, torques[:, j],
-                         (-torque_limit[j], torque_limit[j]), trajectory.total_time)
+            _log_profile(rec, "torque", name, joint_colour(j), plot_index, torque_ratios[:, j],
+                         (-1.0, 1.0), trajectory.total_time)
     via_index = _time_index(trajectory.via_times)
     via_positions = trajectory.evaluate(trajectory.via_times)
     for j, name in enumerate(names):
@@ -339,10 +362,10 @@ def _log_plan(rec, result, rate_hz: float) -> None:
                                                           np.rad2deg(result.limits.magnitudes[k - 1]))))
              for k, (p, unit) in enumerate(zip(_PROFILES, DEGREE_UNITS))]
     if torque_limit is not None:
-        plots.append(rrb.TimeSeriesView(origin="/profiles/torque", name="torque [N m]",
+        plots.append(rrb.TimeSeriesView(origin="/profiles/torque", name="torque / limit",
                                         plot_legend=rrb.PlotLegend(corner="LeftTop", visible=False),
                                         axis_x=_time_axis(trajectory.total_time, names),
-                                        axis_y=rrb.ScalarAxis(range=_symmetric_range(torques, torque_limit))))
+                                        axis_y=rrb.ScalarAxis(range=_symmetric_range(torque_ratios, np.ones(1)))))
     summary = rrb.TextDocumentView(origin=_SUMMARY, name="summary")
     if result.robot is not None:
         eye = _log_robot(rec, result, times, positions)

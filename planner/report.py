@@ -107,16 +107,16 @@ def _draw_column(axes, column: ProfileColumn, limits: JointLimits, colours: list
 
 def _draw_torques(axis, trajectory: PiecewisePolynomial, torques: Callable[[np.ndarray], np.ndarray],
                   limit: np.ndarray, colours: list[str], rate_hz: float) -> None:
-    """Each joint's torque [N m] against time in its colour, its limits dashed (as ``_draw_column``)."""
+    """Each joint's torque as a fraction of its limit, tau_j / L_j, against time in its colour, and the
+    limits at +-1 dashed: on one scale, the joint that binds reaches the band whatever its limit in N m
+    (drawn in N m, a large limit such as a shoulder's set the scale and flattened the wrist's torques)."""
     times = trajectory.sample_times(min(rate_hz, PLOT_SAMPLES / trajectory.total_time))
-    values = torques(times)
-    joints = values.shape[1]
-    for j in range(joints):
-        colour = colours[j % len(colours)]
-        axis.plot(times, values[:, j], color=colour, linewidth=1.4)
-        for bound in (-limit[j], limit[j]):
-            axis.axhline(bound, color=colour, linestyle=_dashes(j, joints), linewidth=0.9, alpha=0.8)
-    axis.set_ylabel("torque [N m]")
+    ratios = torques(times) / limit
+    for j in range(ratios.shape[1]):
+        axis.plot(times, ratios[:, j], color=colours[j % len(colours)], linewidth=1.4)
+    for bound in (-1.0, 1.0):
+        axis.axhline(bound, color="0.3", linestyle="--", linewidth=0.9)
+    axis.set_ylabel("torque / limit")
     axis.set_xlabel("time [s]")
     axis.grid(alpha=0.3)
 
@@ -178,7 +178,7 @@ def plot_profiles(trajectory: PiecewisePolynomial, limits: JointLimits, path: Pa
                   torques: tuple[Callable[[np.ndarray], np.ndarray], np.ndarray] | None = None) -> None:
     """Position, velocity, acceleration and jerk of every joint against time, as PNG; with
     ``torques`` (a function of times (K,) [s] giving (K, J) torques [N m], and the (J,) limits
-    [N m]), a fifth plot of the joint torques and their limits.
+    [N m]), a fifth plot of each joint's torque as a fraction of its limit (the limits at +-1).
 
     Dashed lines in each joint's colour mark its limits; joints whose limits share a value
     interleave their dashes, so each stays visible. Dotted grey lines mark the times of the

@@ -1020,3 +1020,45 @@ def test_a_floating_or_planar_joint_off_the_chain_is_drawn_at_its_origin(tmp_pat
                             limits={"acceleration_deg_s2": [10], "jerk_deg_s3": [10]}))
     result.save(tmp_path / "out")
     assert read_recording(tmp_path / "out" / "trajectory.rrd").check().passed
+
+
+def test_a_robot_limited_plan_records_its_torque_over_the_limit_and_its_ratios_in_the_summary(tmp_path):
+    """With torque and tool-speed limits, the torque plot holds each joint's torque over its limit (the
+    pendulum's closed form, tau = (I + m l^2) q'' - m g l cos q, by hand, at the recorded times) with the
+    limits at +-1, and the summary panel's table lists the torque's and the tool speed's largest ratios
+    beside the kinematic ones (as summary.json gives them)."""
+    import rerun as rr
+    import rerun.chunk as rc
+
+    from conftest import pendulum
+
+    robot = pendulum(tmp_path)
+    result = plan({"version": 1, "name": "swing", "robot": {"urdf": str(robot.urdf_path), "tool_frame": "tip"},
+                   "waypoints": {"joints_deg": [[-90], [60], [-30], [90]]},
+                   "limits": {"velocity_deg_s": [400], "acceleration_deg_s2": [4000], "jerk_deg_s3": [40000],
+                              "torque_nm": [12.0], "tool_speed_m_s": 1.5}})
+    path = tmp_path / "r.rrd"
+    write_recording(result, path)
+    entity = rr.new_entity_path(["profiles", "torque", "swing"])
+    times, values = [], []
+    for chunk in rc.RrdReader(str(path)).stream().filter(content=entity).to_chunks():
+        if not chunk.is_static:
+            batch = chunk.to_record_batch()
+            times += (batch.column("time").cast(pa.int64()).to_numpy() / 1e9).tolist()
+            values += [v[0] for v in batch.column("Scalars:scalars").to_pylist()]
+    q, qdd = (result.trajectory.evaluate(np.array(times), order)[:, 0] for order in (0, 2))
+    expected = ((0.03 + 2.0 * 0.25) * qdd - 2.0 * 9.81 * 0.5 * np.cos(q)) / 12.0
+    assert len(values) > 100
+    np.testing.assert_allclose(values, expected, atol=1e-6)
+    upper = rr.new_entity_path(["profiles", "torque", "limits", "swing", "upper"])
+    dashes = [v[0] for c in rc.RrdReader(str(path)).stream().filter(content=upper).to_chunks() if not c.is_static
+              for v in c.to_record_batch().column("Scalars:scalars").to_pylist()]
+    assert {v for v in dashes if v == v} == {1.0}
+    summary = static_components(path, "/summary")["/summary"]
+    text = summary["text"][0] if isinstance(summary["text"], list) else summary["text"]
+    figures = result.summary()["robot_limits"]
+    header, _, ratios, joints = [line for line in text.splitlines() if line.startswith("|")]
+    assert header.split(" | ")[-2:] == ["torque", "tool speed |"]
+    assert ratios.split(" | ")[-2:] == [f"{figures['torque_ratio'][0]:.3f}", f"{figures['tool_speed_ratio']:.3f} |"]
+    assert joints.split(" | ")[-2:] == ["swing", "(tool) |"]
+    assert max(figures["torque_ratio"][0], figures["tool_speed_ratio"]) > 0.999

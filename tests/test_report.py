@@ -111,3 +111,32 @@ def test_pipes_are_escaped_once():
     assert markdown_cell("max |v|") == "max \\|v\\|"
     assert markdown_cell("max \\|v\\|") == "max \\|v\\|"
     assert markdown_cell(float("nan")) == "-"
+
+
+def test_the_torque_plot_shows_each_joint_over_its_own_limit(tmp_path, monkeypatch):
+    """The fifth plot draws tau_j / L_j (not N m, where a 186 N m shoulder limit flattened a 20 N m wrist's
+    binding torque to a line) and the limits once at +-1: a torque function of the times by hand, two joints
+    whose limits differ 40 times, the drawn lines read back from the axes."""
+    import matplotlib.figure
+
+    figures = []
+    original = matplotlib.figure.Figure.savefig
+
+    def spy(self, *args, **kwargs):
+        figures.append(self)
+        return original(self, *args, **kwargs)
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", spy)
+    limit = np.array([200.0, 5.0])
+
+    def torques(times):
+        return np.column_stack((100.0 * np.sin(times), -5.0 * np.cos(times)))
+    plot_profiles(trajectory_for(2), JointLimits.create(2), tmp_path / "p.png", torques=(torques, limit))
+    axis = figures[0].axes[4]
+    assert axis.get_ylabel() == "torque / limit"
+    curves = [line for line in axis.get_lines() if len(line.get_xdata()) > 2]
+    assert len(curves) == 2
+    for j, line in enumerate(curves):
+        times = np.asarray(line.get_xdata())
+        np.testing.assert_allclose(line.get_ydata(), torques(times)[:, j] / limit[j], rtol=1e-12)
+    levels = sorted(line.get_ydata()[0] for line in axis.get_lines() if len(line.get_xdata()) == 2)
+    assert levels == [-1.0, 1.0]

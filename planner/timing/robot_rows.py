@@ -60,8 +60,9 @@ degree) makes torque and speed smooth. After the solve the trajectory is
 checked densely (``dynamics.meet_robot_limits``, 1 kHz) and slowed down
 uniformly by what the samples missed: on the bundled tasks nothing (UR5,
 torque), 0.2 % (UR5, 0.25 m/s tool speed) and 2 % (PUMA paper task, 0.25 m/s,
-segments of several seconds). The kinematic limits stay exact; these stay
-sampled.
+segments of several seconds); above ``pipeline.RETIMED_SLOW_DOWN`` the NLP times
+it once more with these limits tightened by that slow-down. The kinematic limits
+stay exact; these stay sampled.
 
 Arms whose configuration has more coordinates than velocities (continuous
 joints as cos/sin pairs) are not modelled here: ``supported`` says so, and the
