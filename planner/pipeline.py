@@ -949,7 +949,12 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
                                   time_limit_s=settings["time_limit"], **settings["settings"])
             except SettingError as exc:  # one the task's size decides (``check_population``)
                 raise TaskError(f"optimizer.{exc.setting}", exc.problem) from None
-        trajectory = problem.trajectory(result.durations, result.knot_states)
+        try:
+            trajectory = problem.trajectory(result.durations, result.knot_states)
+        except InputError:  # an infeasible best whose states no spline holds (a stopped NLP's): refused below
+            if result.knot_states is None or result.feasible:
+                raise
+            trajectory = problem.trajectory(result.durations)  # as the family's rule would time it
         found = kinematic_figures(trajectory).violations(limits)  # the trajectory built, checked once more
         cut = f", stopped by the time limit of {settings['time_limit']:g} s" if result.out_of_time else ""
         progress.note(f"{progress.label}: total time {result.total_time:.6g} s, "

@@ -405,16 +405,22 @@ class SplineFamily:
         return PiecewisePolynomial(h, coefficients, knots, self.basis)
 
     def _check_passes(self, via: np.ndarray, h: np.ndarray, coefficients: np.ndarray, knots: np.ndarray) -> None:
-        """Refuse coefficients (S, J, C) that rounding has parted from the via-points (n, J) [rad] or
-        broken apart at a knot by more than ``BUILD_TOLERANCE`` (relative): each segment's start and end
-        (``segment_ends``) are compared with the via-point at its knot and with the next segment's start. An
-        end is only known to within C eps times the bound on |q| there (sum_i |c_i| h^i: the sum's own
-        rounding, large where its terms cancel): that is added to its gap, so a spline whose ends no
-        evaluation pins down is refused too.
+        """Refuse coefficients (S, J, C) that rounding has parted from the via-points (``rounding_break``).
 
         Raises:
             InputError: naming the knot, the joint, the gap and the durations' spread.
         """
+        broken = self.rounding_break(via, h, coefficients, knots)
+        if broken is not None:
+            raise InputError(broken)
+
+    def rounding_break(self, via: np.ndarray, h: np.ndarray, coefficients: np.ndarray, knots: np.ndarray) -> str | None:
+        """Where rounding has parted coefficients (S, J, C) from the via-points (n, J) [rad] or broken them
+        apart at a knot by more than ``BUILD_TOLERANCE`` (relative), what is wrong (knot, joint, gap and the
+        durations' spread); else None. Each segment's start and end (``segment_ends``) are compared with the
+        via-point at its knot and with the next segment's start. An end is only known to within C eps times
+        the bound on |q| there (sum_i |c_i| h^i: the sum's own rounding, large where its terms cancel): that
+        is added to its gap, so a spline whose ends no evaluation pins down is refused too."""
         starts, ends, bound = segment_ends(coefficients, h, 0, self.basis)
         with np.errstate(all="ignore"):
             doubt = coefficients.shape[2] * np.finfo(float).eps * bound
@@ -423,14 +429,14 @@ class SplineFamily:
         gaps = np.concatenate(((np.abs(positions[knots] - via) + uncertain[knots]).ravel(),
                                (np.abs(ends[:-1] - positions[1:-1]) + doubt[:-1]).ravel()))
         worst = int(np.argmax(gaps))
-        if not gaps[worst] <= BUILD_TOLERANCE * max(1.0, float(np.abs(via).max())):
-            on_via = worst < via.size
-            knot = int(knots[worst // via.shape[1]]) if on_via else worst // via.shape[1] - len(knots) + 1
-            what = "misses its via-point" if on_via else "breaks apart"
-            raise InputError(f"the {self.name} spline built from durations {h.min():.3g} to {h.max():.3g} s "
-                             f"{what} at knot {knot}, joint {worst % via.shape[1]}, by {gaps[worst]:.3g} rad "
-                             f"(rounding: the durations are too far apart for floating point); give "
-                             f"durations of a physical size")
+        if gaps[worst] <= BUILD_TOLERANCE * max(1.0, float(np.abs(via).max())):
+            return None
+        on_via = worst < via.size
+        knot = int(knots[worst // via.shape[1]]) if on_via else worst // via.shape[1] - len(knots) + 1
+        what = "misses its via-point" if on_via else "breaks apart"
+        return (f"the {self.name} spline built from durations {h.min():.3g} to {h.max():.3g} s {what} at knot "
+                f"{knot}, joint {worst % via.shape[1]}, by {gaps[worst]:.3g} rad (rounding: the durations are too "
+                f"far apart for floating point); give durations of a physical size")
 
     def build_batch(self, via_points, durations) -> np.ndarray:
         """Coefficients (B, S, J, D+1) for a batch of duration vectors (B, S) [s] (not finite where

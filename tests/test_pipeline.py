@@ -953,3 +953,27 @@ def test_task_limits_beyond_the_robots_own_are_said():
                        {"joint": "shoulder_pan_joint", "limit": "velocity_deg_s", "task": 1000.0,
                         "robot": urdf_velocity}]
     assert notes_of({"position_deg": [[-100, 100]] * 6, "velocity_deg_s": [90] * 6}) == ([], [])
+
+
+def test_an_infeasible_best_whose_states_no_spline_holds_is_refused_as_infeasible(monkeypatch):
+    """A time limit stopped the NLP on via-point states so large against the durations that rounding broke
+    the hermite7 spline apart, and that infeasible best was built as it was: the plan failed with the build's
+    rounding message ("give durations of a physical size"), naming nothing the user gave (a fuzzed task,
+    2026-12-07). The best timing is now refused as no feasible timing found, naming the time limit."""
+    import planner.pipeline as pipeline
+    from planner.timing.result import TIME_LIMIT_REASON
+
+    optimize = pipeline.optimize
+
+    def stopped(problem, *args, **kwargs):
+        result = optimize(problem, *args, **kwargs)
+        states = np.array(result.knot_states)
+        states[1:-1, :, 0] = 1e12  # rad/s: every segment's coefficients parted by rounding
+        return dataclasses.replace(result, knot_states=states, feasible=False,
+                                   stop_reason=f"{TIME_LIMIT_REASON} of 30 s reached")
+    monkeypatch.setattr(pipeline, "optimize", stopped)
+    task = {"version": 1, "waypoints": {"joints_deg": [[0, 0], [40, -20], [10, 30]]},
+            "limits": {"velocity_deg_s": [50, 50], "acceleration_deg_s2": [100, 100], "jerk_deg_s3": [500, 500]},
+            "trajectory": {"family": "hermite7"}, "optimizer": {"algorithm": "nlp", "time_limit_s": 30}}
+    with pytest.raises(InfeasibleError, match=r"no feasible timing found by nlp before the time limit of 30 s"):
+        plan(task)

@@ -829,3 +829,27 @@ def test_via_points_beyond_the_largest_position_are_refused_naming_them(via):
                                              f"planner takes, \\+-1745.33 rad \\(100000 deg\\)"):
             TimingProblem(np.array(via), "hybrid", limits)
     assert TimingProblem(np.array([[0.0, 0.0], [0.0, 1745.0]]), "hybrid", limits).joint_count == 2
+
+
+@pytest.mark.parametrize("velocity", [0.0, 1e3, 1e4, 1e6])
+def test_a_candidate_whose_states_no_spline_can_hold_is_infeasible(velocity):
+    """hermite7 through 0, 1, 0.5 rad over two 1000 s segments, only acceleration and jerk limited (1e6): an
+    interior via-point velocity of 1e4 rad/s keeps every limit (ratios 5e-5) but swings the position by some
+    1e7 rad, where rounding parts the segments' ends by more than the build's tolerance. A time-limited NLP
+    iterate kept such states as its best, and the plan then failed to build it (a fuzzed task, 2026-12-07):
+    the evaluation now calls a candidate feasible only where its trajectory builds."""
+    problem = TimingProblem(np.array([[0.0], [1.0], [0.5]]), "hermite7",
+                            JointLimits.create(1, acceleration=[1e6], jerk=[1e6]))
+    h = np.array([1000.0, 1000.0])
+    states = np.zeros((3, 1, 3))
+    states[1, 0, 0] = velocity
+    evaluation = problem.evaluate_durations(h[None], states[None])
+    assert evaluation.ratios.max() < 1e-2
+    try:
+        problem.trajectory(h, states)
+        built = True
+    except InputError as exc:
+        assert "rounding" in str(exc)
+        built = False
+    assert built is (velocity <= 1e3)
+    assert bool(evaluation.feasible[0]) is built

@@ -395,10 +395,18 @@ class TimingProblem:
         return self._evaluate_durations(h, self._states(states, len(h)))
 
     def _evaluate_durations(self, h: np.ndarray, states: np.ndarray | None) -> Evaluation:
-        """``evaluate_durations`` of checked arrays."""
+        """``evaluate_durations`` of checked arrays. A candidate with free via-point states whose spline
+        rounding parts from its via-points (``SplineFamily.rounding_break``: states so large against the
+        durations that the coefficients' terms cancel, as an NLP iterate stopped by the time limit can hold)
+        is infeasible: its trajectory could not be built."""
         coefficients, ratios, _ = self._figures(h, states)
-        return replace(self._score(h, ratios, self._position_excess(coefficients, h), self._energy(coefficients, h)),
-                       states=states)
+        evaluation = self._score(h, ratios, self._position_excess(coefficients, h), self._energy(coefficients, h))
+        if states is not None:
+            knots = self.family.via_knots(len(self.via_points))
+            built = np.array([np.isfinite(c).all() and self.family.rounding_break(self.via_points, d, c, knots) is None
+                              for d, c in zip(h, coefficients)])
+            evaluation = replace(evaluation, feasible=evaluation.feasible & built)
+        return replace(evaluation, states=states)
 
     def evaluate_states(self, durations: np.ndarray, states: np.ndarray) -> Evaluation:
         """Repair durations (B, S) [s] with the free via-point states (B, n, J, 3) of a family that
