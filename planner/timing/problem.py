@@ -59,7 +59,7 @@ from ..validate import DURATION_BOUND_RANGE, finite_array, positive_durations
 from .lower_bound import pair_lower_bounds
 
 OBJECTIVES = ("time", "time-jerk")
-#: Consecutive via-points closer than this in every joint [rad] are one via-point.
+#: Consecutive via-points within this of each other in every joint [rad] are one via-point.
 REPEAT_TOLERANCE = 1e-9
 _REPAIR_ROUNDS = 6
 _PENALTY = 1e3
@@ -415,7 +415,8 @@ class TimingProblem:
         holds and one is reached, but no less than takes the shortest duration to ``duration_floor``
         (a solve whose durations sit on h_min with no limit reached is shrunk no further; shrunk, it
         was refused as below h_min). h_max is not enforced by the repair (the NLP imposes it): a
-        result above it is penalised."""
+        result above it is infeasible (its objective not penalised: a search's tracker keeps feasible
+        results first)."""
         h = self._batch("durations", durations)
         checked = self._states(states, len(h))
         if checked is None:
