@@ -44,6 +44,35 @@ def puma_dh_frames(q: np.ndarray) -> list[np.ndarray]:
     return frames
 
 
+def puma_segment(puma):
+    """A short PUMA straight-line segment: its end configurations [rad], their poses (Pinocchio FK) and a
+    function of the fraction u giving the segment's pose there, computed independently of the planner
+    (linear position, scipy's slerp of the rotations)."""
+    from scipy.spatial.transform import Rotation, Slerp
+
+    q0 = np.deg2rad([10.0, -60.0, 150.0, 0.0, -30.0, 10.0])
+    q1 = q0 + np.deg2rad([20.0, 10.0, -15.0, 10.0, 15.0, -20.0])
+    poses = [puma.forward_kinematics(q) for q in (q0, q1)]
+    slerp = Slerp([0.0, 1.0], Rotation.from_matrix(np.stack([p.rotation for p in poses])))
+
+    def pose_at(u):
+        return (1 - u) * poses[0].translation + u * poses[1].translation, slerp([u])[0]
+
+    return q0, q1, poses, pose_at
+
+
+def assert_on_segment(puma, pose_at, fractions, configurations) -> None:
+    """Each configuration puts the tool (Pinocchio FK) at its fraction's pose of ``puma_segment``'s
+    ``pose_at``, to 1e-8 m and 1e-8 rad."""
+    from scipy.spatial.transform import Rotation
+
+    for u, q in zip(fractions, configurations):
+        frame = puma.forward_kinematics(q)
+        position, rotation = pose_at(u)
+        np.testing.assert_allclose(frame.translation, position, atol=1e-8)
+        assert (rotation.inv() * Rotation.from_matrix(frame.rotation)).magnitude() <= 1e-8
+
+
 @pytest.fixture
 def paper_via() -> np.ndarray:
     return np.deg2rad(paper.VIA_POINTS_DEG)

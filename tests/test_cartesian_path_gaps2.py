@@ -7,9 +7,9 @@ import pinocchio as pin
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from scipy.spatial.transform import Rotation, Slerp
 
 import planner.cartesian_path as cp
+from conftest import assert_on_segment, puma_segment
 from planner import IKError
 from planner.robot import load_robot
 
@@ -21,33 +21,11 @@ def puma():
     return load_robot(ROOT / "robots" / "puma560.urdf", tool_frame="tool")
 
 
-def _puma_segment(puma):
-    """A short PUMA segment: its end configurations [rad], their poses (Pinocchio FK) and the segment's pose at a
-    fraction u, computed independently (linear position, scipy's slerp)."""
-    q0 = np.deg2rad([10.0, -60.0, 150.0, 0.0, -30.0, 10.0])
-    q1 = q0 + np.deg2rad([20.0, 10.0, -15.0, 10.0, 15.0, -20.0])
-    poses = [puma.forward_kinematics(q) for q in (q0, q1)]
-    slerp = Slerp([0.0, 1.0], Rotation.from_matrix(np.stack([p.rotation for p in poses])))
-
-    def pose_at(u):
-        return (1 - u) * poses[0].translation + u * poses[1].translation, slerp([u])[0]
-
-    return q0, q1, poses, pose_at
-
-
-def _assert_on_line(puma, pose_at, fractions, configurations):
-    for u, q in zip(fractions, configurations):
-        frame = puma.forward_kinematics(q)
-        position, rotation = pose_at(u)
-        np.testing.assert_allclose(frame.translation, position, atol=1e-8)
-        assert (rotation.inv() * Rotation.from_matrix(frame.rotation)).magnitude() <= 1e-8
-
-
 def test_respacing_keeps_the_configurations_of_the_poses_already_there_exactly(puma):
     """Respacing a segment's poses keeps a pose that is already at one of the new fractions as it is: both ends
     (the waypoints' configurations, which the neighbouring segments share) and an interior pose, bit for bit,
     not solved again by IK (which lands within its tolerance, not on the same numbers)."""
-    q0, q1, poses, pose_at = _puma_segment(puma)
+    q0, q1, poses, pose_at = puma_segment(puma)
     middle = cp._pose_between(puma, poses, 0, 0.0, 1.0, q0, q1)
     fractions, configurations = [0.0, 0.5, 1.0], [q0, middle, q1]
     cp._respace(puma, poses, 0, fractions, configurations, 4)
@@ -55,14 +33,14 @@ def test_respacing_keeps_the_configurations_of_the_poses_already_there_exactly(p
     assert len(configurations) == 5
     for kept, q in ((0, q0), (2, middle), (4, q1)):
         np.testing.assert_array_equal(configurations[kept], q)
-    _assert_on_line(puma, pose_at, fractions, configurations)
+    assert_on_segment(puma, pose_at, fractions, configurations)
 
 
 def test_respacing_where_continuation_fails_solves_each_pose_between_its_old_neighbours(puma, monkeypatch):
     """Where IK continuation along the line fails (forced here), ``_respace`` still puts every new pose on the
     line at its even fraction, from IK seeded between the old poses it falls between (the fallback of
     ``_pose_between``), and keeps both ends."""
-    q0, q1, poses, pose_at = _puma_segment(puma)
+    q0, q1, poses, pose_at = puma_segment(puma)
     on_line = [cp.continued(puma, poses, 0, q0, 0.0, u) for u in (1 / 3, 2 / 3)]  # before it is switched off
     monkeypatch.setattr(cp, "continued", lambda *args: None)
     fractions, configurations = [0.0, 1.0], [q0, q1]
@@ -70,7 +48,7 @@ def test_respacing_where_continuation_fails_solves_each_pose_between_its_old_nei
     np.testing.assert_allclose(fractions, [0.0, 1 / 3, 2 / 3, 1.0], atol=1e-15)
     np.testing.assert_array_equal(configurations[0], q0)
     np.testing.assert_array_equal(configurations[-1], q1)
-    _assert_on_line(puma, pose_at, fractions, configurations)
+    assert_on_segment(puma, pose_at, fractions, configurations)
     # the branch the line's continuous motion is on
     np.testing.assert_allclose(configurations[1:3], on_line, atol=1e-6)
 

@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import pytest
-from scipy.spatial.transform import Rotation, Slerp
 
+from conftest import assert_on_segment, puma_segment
 from planner import IKError, JointLimits
 from planner.cartesian_path import _respace
 from planner.errors import InfeasibleError, InputError
@@ -175,25 +175,14 @@ def test_respaced_poses_put_the_tool_at_their_even_fractions_along_the_line():
     (Pinocchio FK) is at fraction k/3 of the straight segment, computed here independently (linear position,
     scipy's slerp), not at the middle of the old poses it falls between."""
     puma = load_robot(Path(__file__).resolve().parents[1] / "robots" / "puma560.urdf", tool_frame="tool")
-    q0 = np.deg2rad([10.0, -60.0, 150.0, 0.0, -30.0, 10.0])
-    q1 = q0 + np.deg2rad([20.0, 10.0, -15.0, 10.0, 15.0, -20.0])
-    poses = [puma.forward_kinematics(q) for q in (q0, q1)]
-    slerp = Slerp([0.0, 1.0], Rotation.from_matrix(np.stack([p.rotation for p in poses])))
-
-    def pose_at(u):
-        return (1 - u) * poses[0].translation + u * poses[1].translation, slerp([u])[0]
-
+    q0, q1, poses, pose_at = puma_segment(puma)
     position, rotation = pose_at(0.5)
     middle = solve_pose(puma, pin.SE3(rotation.as_matrix(), position), (q0 + q1) / 2)
     assert middle.residual <= 1e-9
     fractions, configurations = [0.0, 0.5, 1.0], [q0, middle.q, q1]
     _respace(puma, poses, 0, fractions, configurations, 3)
     np.testing.assert_allclose(fractions, [0.0, 1 / 3, 2 / 3, 1.0], atol=1e-15)
-    for u, q in zip(fractions, configurations):
-        frame = puma.forward_kinematics(q)
-        position, rotation = pose_at(u)
-        np.testing.assert_allclose(frame.translation, position, atol=1e-8)
-        assert (rotation.inv() * Rotation.from_matrix(frame.rotation)).magnitude() <= 1e-8
+    assert_on_segment(puma, pose_at, fractions, configurations)
 
 
 def test_ik_from_the_middle_that_lands_on_another_branch_is_not_taken(monkeypatch):
