@@ -391,7 +391,8 @@ def _held_still_beyond(robot: Robot, joint: int, gravity: float, limit: float, w
     """The error "joint ... needs g N m just to hold still at ``where``, beyond its torque limit ...",
     followed by ``then`` (why no timing helps, and what to change)."""
     return InfeasibleError(f"joint {robot.joint_names[joint]!r} needs {gravity:.4g} N m just to hold still at "
-                           f"{where}, beyond its torque limit {limit:.4g} N m{then}", joint=joint, quantity="torque",
+                           f"{where}, beyond its torque limit {limit:.4g} N m{then}", joint=robot.joint_names[joint],
+                           joint_index=joint, quantity="torque",
                            value=gravity, limit=limit)
 
 
@@ -440,7 +441,8 @@ def _no_common_slow_down(robot: Robot, check: RobotLimitCheck, gravity: np.ndarr
                            f"slower, but joint {robot.joint_names[joint]!r} needs {gravity[k, joint]:.4g} N m just to "
                            f"hold still at {_where(check.times, k, waypoint_times)}, beyond its torque limit "
                            f"{limit[joint]:.4g} N m, and its motion holds that back only up to {allowed:.6g} times "
-                           f"slower; raise limits.torque_nm or move the waypoints", joint=int(joint),
+                           f"slower; raise limits.torque_nm or move the waypoints", joint=robot.joint_names[joint],
+                           joint_index=int(joint),
                            quantity="torque", value=float(gravity[k, joint]), limit=float(limit[joint]))
 
 

@@ -103,17 +103,26 @@ class TaskError(InputError):
 
 
 class InfeasibleError(PlannerError):
-    """No trajectory can satisfy a limit (the joint, quantity, value and limit are named)."""
+    """No trajectory can satisfy a limit (the joint, quantity, value and limit are named).
+
+    Attributes:
+        joint: the joint's name, as the message says it (``joint2``, a URDF's ``shoulder_lift_joint``), as
+            on every error that names a joint; ``joint_index``: its column (0-based) in the plan's arrays.
+        quantity, value, limit: what exceeds which limit (SI units: rad, s, N m).
+    """
 
     exit_code = 2
 
-    def __init__(self, message: str, *, joint: int | None = None, quantity: str | None = None,
-                 value: float | None = None, limit: float | None = None, violation=None):
-        """The fields come from ``violation`` (a ``kinematics.Violation``: its joint index, quantity,
-        value and limit) when one is given, else from the keywords."""
+    def __init__(self, message: str, *, joint: str | None = None, joint_index: int | None = None,
+                 quantity: str | None = None, value: float | None = None, limit: float | None = None,
+                 violation=None):
+        """The fields come from ``violation`` (a ``kinematics.Violation``: its joint's name and index,
+        quantity, value and limit) when one is given, else from the keywords."""
         if violation is not None:
-            joint, quantity, value, limit = violation.index, violation.quantity, violation.value, violation.limit
+            joint, joint_index = violation.joint, violation.index
+            quantity, value, limit = violation.quantity, violation.value, violation.limit
         self.joint = joint
+        self.joint_index = joint_index
         self.quantity = quantity
         self.value = value
         self.limit = limit

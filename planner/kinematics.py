@@ -463,23 +463,26 @@ class KinematicFigures(ReadOnlyArrays):
 
 class Break(str):
     """One line of ``continuity_breaks`` or ``via_point_misses`` (compared and joined as text), with the
-    joint's index (``joint``), the quantity (``position``, ``velocity``, ``acceleration``), the value found [SI] and
-    the tolerance it exceeds [SI] as fields, as an ``InfeasibleError`` carries them."""
+    joint's name (``joint``) and index (``joint_index``), the quantity (``position``, ``velocity``,
+    ``acceleration``), the value found [SI] and the tolerance it exceeds [SI] as fields, as an
+    ``InfeasibleError`` carries them."""
 
-    joint: int
+    joint: str
+    joint_index: int
     quantity: str
     value: float
     limit: float
 
-    def __new__(cls, text: str, joint: int, quantity: str, value: float, limit: float) -> "Break":
+    def __new__(cls, text: str, joint: str, joint_index: int, quantity: str, value: float, limit: float) -> "Break":
         """The line ``text`` with its fields (value and limit in SI units)."""
         line = super().__new__(cls, text)
-        line.joint, line.quantity, line.value, line.limit = joint, quantity, float(value), float(limit)
+        line.joint, line.joint_index, line.quantity = joint, joint_index, quantity
+        line.value, line.limit = float(value), float(limit)
         return line
 
     def __reduce__(self):
         """Pickle with its fields (a check run in a worker process returns its lines whole)."""
-        return Break, (str(self), self.joint, self.quantity, self.value, self.limit)
+        return Break, (str(self), self.joint, self.joint_index, self.quantity, self.value, self.limit)
 
 
 #: The derivative orders every family keeps continuous across its knots (position, velocity, acceleration:
@@ -525,13 +528,13 @@ def continuity_breaks(trajectory: PiecewisePolynomial,
             if beyond.size:
                 k = int(beyond[0]) + 1
                 breaks.append(Break(f"joint {name} {quantity} jumps by {in_degrees(jumps[k - 1, j], order)} at knot "
-                                    f"{k} (t = {knot_times[k]:.6g} s)", j, quantity, jumps[k - 1, j],
+                                    f"{k} (t = {knot_times[k]:.6g} s)", name, j, quantity, jumps[k - 1, j],
                                     allowed[k, j]))
             for where, value, limit in (("start", start[0, j], allowed[0, j]),
                                         ("end", end[-1, j], allowed[-1, j])) if order else ():
                 if not abs(value) <= limit:
                     breaks.append(Break(f"joint {name} {quantity} is {in_degrees(value, order)} at the {where}, "
-                                        f"where every trajectory rests", j, quantity, value, limit))
+                                        f"where every trajectory rests", name, j, quantity, value, limit))
     return breaks
 
 
@@ -552,7 +555,7 @@ def via_point_misses(trajectory: PiecewisePolynomial, via_points: np.ndarray,
         if beyond.size:
             i = int(beyond[0])
             found.append(Break(f"joint {name} misses via-point {i} by {in_degrees(miss[i, j], 0)} (t = "
-                               f"{times[i]:.6g} s)", j, "position", miss[i, j], allowed[i, j]))
+                               f"{times[i]:.6g} s)", name, j, "position", miss[i, j], allowed[i, j]))
     return found
 
 

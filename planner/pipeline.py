@@ -788,7 +788,7 @@ def _outside_bounds(problem: TimingProblem, result: OptimizationResult, worst: V
                            f"{shown_bound} s, "
                            f"with joint {problem.limits.names[j]}'s {limited.name} at its limit "
                            f"{in_degrees(limit, limited.order)}{also}; widen the bounds or raise that limit"
-                           + _fixed_states_hint(problem, result), joint=j,
+                           + _fixed_states_hint(problem, result), joint=problem.limits.names[j], joint_index=j,
                            quantity=limited.name, value=float(result.ratios[d, j]) * limit, limit=limit)
 
 
@@ -1155,7 +1155,8 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
     if broken:  # a spline is continuous and passes its via-points by construction: this guards the construction
         first = broken[0]
         raise InfeasibleError(f"the planned trajectory fails the exact check: {first}", joint=first.joint,
-                              quantity=first.quantity, value=first.value, limit=first.limit)
+                              joint_index=first.joint_index, quantity=first.quantity, value=first.value,
+                              limit=first.limit)
     planned = PlanResult(task, via, limits, result, trajectory, timings, robot, ik, path, branch_times, kept, met,
                          trajectory_digest(trajectory), widened)
     exceeded = max(planned.figures.violations(limits), key=lambda violation: violation.ratio, default=None)

@@ -75,7 +75,7 @@ def test_a_call_in_a_child_returns_raises_or_names_the_crash_that_ended_it(capfd
     assert call_in_child(square_with_pid, 7)[0] == 49 and call_in_child(square_with_pid, 7)[1] != os.getpid()
     with pytest.raises(InfeasibleError, match="item 3 is odd") as raised:
         call_in_child(fail_on_odd, 3)
-    assert raised.value.joint == 3
+    assert (raised.value.joint, raised.value.joint_index) == ("joint4", 3)
     with pytest.raises(WorkerLost, match="exit code -6") as lost:
         call_in_child(abort_after_saying, "thread panicked at here:\nthe cause\n")
     assert lost.value.said.startswith("thread panicked at here:\nthe cause")
@@ -84,14 +84,16 @@ def test_a_call_in_a_child_returns_raises_or_names_the_crash_that_ended_it(capfd
 
 def fail_on_odd(x):
     if x % 2:
-        raise InfeasibleError(f"item {x} is odd", joint=x, quantity="velocity", value=2.0, limit=1.0)
+        raise InfeasibleError(f"item {x} is odd", joint=f"joint{x + 1}", joint_index=x, quantity="velocity",
+                               value=2.0, limit=1.0)
     return x
 
 
 def test_a_childs_error_is_raised_in_the_parent_with_its_fields():
     with pytest.raises(InfeasibleError, match="item 1 is odd") as caught:
         map_forked(fail_on_odd, [0, 1], workers=2)
-    assert (caught.value.joint, caught.value.quantity, caught.value.value) == (1, "velocity", 2.0)
+    assert (caught.value.joint, caught.value.joint_index, caught.value.quantity, caught.value.value) == (
+        "joint2", 1, "velocity", 2.0)
 
 
 def unknown_robot(x):

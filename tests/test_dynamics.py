@@ -425,7 +425,8 @@ def test_gravity_beyond_a_torque_limit_names_the_joint_and_the_waypoint():
     with pytest.raises(InfeasibleError, match=r"joint 'joint2' needs -?[0-9.]+ N m just to hold still at t = .* "
                                               r"\(nearest waypoint \d\), beyond its torque limit 30 N m") as caught:
         plan(paper_task(torque_nm=efforts))
-    assert (caught.value.joint, caught.value.quantity, caught.value.limit) == (1, "torque", 30.0)
+    assert (caught.value.joint, caught.value.joint_index, caught.value.quantity, caught.value.limit) == (
+        "joint2", 1, "torque", 30.0)
     assert abs(caught.value.value) > 30
     assert "no slow-down helps" in str(caught.value) and "inf times" not in str(caught.value)
 
@@ -443,7 +444,8 @@ def test_gravity_beyond_a_torque_limit_where_the_arm_rests_is_named_before_any_t
                                               r"waypoint, where the trajectory rests, beyond its torque limit "
                                               r"10 N m: no timing helps") as caught:
         plan(paper_task(torque_nm=[10] * 6))
-    assert (caught.value.joint, caught.value.quantity, caught.value.limit) == (1, "torque", 10.0)
+    assert (caught.value.joint, caught.value.joint_index, caught.value.quantity, caught.value.limit) == (
+        "joint2", 1, "torque", 10.0)
     monkeypatch.undo()
     import pinocchio as pin
 
@@ -750,7 +752,8 @@ def test_a_slow_down_beyond_what_holds_gravity_back_is_refused_naming_both():
                                               r"hold still at t = .* beyond its torque limit 8\.35 N m, and its motion "
                                               r"holds that back only up to 1\.0\d+ times slower") as caught:
         plan(held_back_task(tool_speed_m_s=0.05))
-    assert (caught.value.joint, caught.value.quantity, caught.value.limit) == (2, "torque", 8.35)
+    assert (caught.value.joint, caught.value.joint_index, caught.value.quantity, caught.value.limit) == (
+        "joint3", 2, "torque", 8.35)
 
 
 def test_the_robot_rounds_warm_start_reaches_the_cold_starts_optimum(monkeypatch):

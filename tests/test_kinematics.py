@@ -489,7 +489,8 @@ def test_a_jump_at_a_knot_or_motion_at_an_end_is_named(change, said):
     line = next(b for b in continuity_breaks(broken) if b == said)  # the fields an InfeasibleError carries
     quantity = said.split()[2]
     order = ("position", "velocity", "acceleration").index(quantity)
-    assert (line.joint, line.quantity) == (joint, quantity) and 0 <= line.limit < abs(line.value)
+    assert (line.joint, line.joint_index, line.quantity) == (f"joint{joint + 1}", joint, quantity)
+    assert 0 <= line.limit < abs(line.value)
     assert abs(line.value) == pytest.approx(abs(delta) * factorial(power) / factorial(power - order), rel=1e-9)
     assert pickle.loads(pickle.dumps(line)).value == line.value
 

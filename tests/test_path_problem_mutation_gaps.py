@@ -74,7 +74,7 @@ def test_durations_fixed_at_h_max_that_break_a_limit_are_refused_naming_the_wors
     with pytest.raises(InfeasibleError, match="every duration at h_max") as raised:
         TimingProblem(via, "quintic", limits, bounds=(1.0, 1.0))
     error = raised.value
-    assert (error.joint, error.quantity) == (0, "velocity")
+    assert (error.joint, error.joint_index, error.quantity) == ("joint1", 0, "velocity")
     assert error.value == pytest.approx(sampled[0, 0] * 1.5, rel=1e-6) and error.limit == 1.5
 
 

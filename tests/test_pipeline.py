@@ -406,8 +406,8 @@ def test_an_infeasible_optimum_names_its_worst_violation_in_text_and_attributes(
                                               r".* exceeds its limit") as caught:
         plan(parse_task(data, name="fast"))
     error = caught.value
-    assert error.quantity in ("acceleration", "jerk") and 0 <= error.joint < 6 and abs(error.value) > error.limit
-    assert f"joint{error.joint + 1} {error.quantity}" in str(error)
+    assert error.quantity in ("acceleration", "jerk") and 0 <= error.joint_index < 6 and abs(error.value) > error.limit
+    assert error.joint == f"joint{error.joint_index + 1}" and f"joint {error.joint} {error.quantity}" in str(error)
 
 
 def _two_joint_problem():
@@ -467,7 +467,9 @@ def test_a_family_with_free_states_outside_the_duration_bounds_names_the_bound_a
                                               r"(velocity|acceleration|jerk) at its limit") as caught:
         plan(task)
     error = caught.value
-    assert error.quantity in ("velocity", "acceleration", "jerk") and error.joint in (0, 1)
+    assert error.quantity in ("velocity", "acceleration", "jerk") and error.joint_index in (0, 1)
+    assert error.joint == f"joint{error.joint_index + 1}"
+    assert f"with joint {error.joint}'s {error.quantity}" in str(error)
     assert error.value == pytest.approx(error.limit, rel=1e-6)
 
 
@@ -761,7 +763,8 @@ def test_a_planned_trajectory_that_misses_a_via_point_is_refused_with_the_fields
                                               r"0\.0572958 deg") as raised:
         plan(PAPER_JOINT)
     error = raised.value
-    assert (error.joint, error.quantity) == (1, "position") and error.value == pytest.approx(1e-3, rel=1e-6)
+    assert (error.joint, error.joint_index, error.quantity) == ("joint2", 1, "position")
+    assert error.value == pytest.approx(1e-3, rel=1e-6)
     assert error.limit == pytest.approx(2e-9 * max(1.0, abs(np.deg2rad(paper.VIA_POINTS_DEG[2][1]))), rel=1e-9)
 
 

@@ -56,7 +56,7 @@ def test_bounds_too_short_for_a_joint_name_the_given_via_points_and_the_joint():
     with pytest.raises(InfeasibleError,
                        match=r"joint joint2 takes at least 2 s from via-point 1 to via-point 2 ") as error:
         TimingProblem(via, "cubic", limits, bounds=(0.1, 0.5))
-    assert error.value.joint == 1 and error.value.quantity == "duration"
+    assert (error.value.joint, error.value.joint_index, error.value.quantity) == ("joint2", 1, "duration")
     assert error.value.value == pytest.approx(2.0) and error.value.limit == pytest.approx(1.0)
 
 

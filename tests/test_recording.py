@@ -865,7 +865,8 @@ def test_a_recording_whose_trajectory_jumps_fails_its_check(tmp_path, capsys):
     write_recording(result, tmp_path / "jump.rrd")
     check = read_recording(tmp_path / "jump.rrd").check()
     assert check.deviation <= check.tolerance and check.largest_ratio <= 1 and not check.passed
-    assert not check.violations and (check.breaks[0].joint, check.breaks[0].quantity) == (0, "position")
+    assert not check.violations and (check.breaks[0].joint, check.breaks[0].joint_index,
+                                                       check.breaks[0].quantity) == ("a", 0, "position")
     assert check.breaks[0].value == pytest.approx(np.deg2rad(30)) and check.findings[0] == check.breaks[0]
     assert main(["replay", str(tmp_path / "jump.rrd"), "--check"]) == 1
     said = capsys.readouterr().out

@@ -462,7 +462,7 @@ def test_h_max_infeasibility_names_the_worst_joint_and_quantity():
     error = caught.value
     # (3, J), independent: the figures of the trajectory at h_max
     peak = kinematic_figures(TimingProblem(via, "cubic", limits).trajectory(np.full(4, 2.0))).max_abs
-    assert (error.joint, error.quantity, error.limit) == (2, "acceleration", 0.01)
+    assert (error.joint, error.joint_index, error.quantity, error.limit) == ("joint3", 2, "acceleration", 0.01)
     assert error.value == pytest.approx(peak[1, 2], rel=1e-9)
     assert "joint3 acceleration" in str(error) and str(error).count("deg/s^2") == 2
 
@@ -472,7 +472,8 @@ def test_out_of_range_via_point_error_fields():
     with pytest.raises(InfeasibleError) as caught:
         TimingProblem([[0.0, 0.0], [0.5, 1.5]], "cubic", limits)
     error = caught.value
-    assert (error.joint, error.quantity, error.value, error.limit) == (1, "position", 1.5, 1.0)
+    assert (error.joint, error.joint_index, error.quantity, error.value, error.limit) == ("joint2", 1, "position", 1.5,
+                                                                                         1.0)
 
 
 # the repair at the minimum segment duration

@@ -239,7 +239,8 @@ class TimingProblem:
                 f"least {needed[p, j]:.6g} s from via-point {first} to via-point {last} within its velocity, "
                 f"acceleration and jerk limits, and the {segments} segment{'s' if segments > 1 else ''} between "
                 f"them {'last' if segments > 1 else 'lasts'} at most {allowed[p]:.6g} s",
-                joint=j, quantity="duration", value=float(needed[p, j]), limit=float(allowed[p]))
+                joint=self.limits.names[j], joint_index=j, quantity="duration", value=float(needed[p, j]),
+                limit=float(allowed[p]))
 
     # ------------------------------------------------------------------ search space
 
