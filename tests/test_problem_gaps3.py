@@ -1,0 +1,51 @@
+"""Gaps in the tests of planner/timing/problem.py found by mutation testing (mutmut 3.8.1, run of 2026-12-07 over
+the functions an earlier run left unchecked: evaluate, the batch checks, coefficients and their neighbours)."""
+
+import numpy as np
+import pytest
+
+from planner import JointLimits
+from planner.errors import InputError
+from planner.timing import TimingProblem
+
+VIA = np.radians([[0.0, 0.0], [40.0, -20.0], [90.0, 10.0]])
+LIMITS = JointLimits.create(2, velocity=[1.0, 1.0], acceleration=[2.0, 2.0], jerk=[10.0, 10.0])
+
+
+def test_coefficients_name_the_durations_they_refuse():
+    """``coefficients`` checks its durations as ``evaluate_durations`` does, and its refusal names them
+    ``durations`` (the NLP passes its iterates there: a message naming anything else points nowhere)."""
+    problem = TimingProblem(VIA, "quintic", LIMITS)
+    with pytest.raises(InputError, match=r"^durations\[0, 1\] is -1\.0 s; durations must be > 0$"):
+        problem.coefficients(np.array([[1.0, -1.0]]))
+    with pytest.raises(InputError, match=r"^durations must hold 2 segment durations, got 3$"):
+        problem.coefficients(np.ones((1, 3)))
+
+
+def test_unbounded_evaluate_builds_each_candidates_splines_once(monkeypatch):
+    """Without bounds (and with every candidate above the minimum duration), ``evaluate`` builds the splines of a
+    batch once: the repaired durations' ratios and jerk energy follow from the candidates' by the time-scaling
+    lemma (its docstring). The figures it returns are those of the repaired durations, built afresh."""
+    problem = TimingProblem(VIA, "quintic", LIMITS, objective="time-jerk", weights=(1.0, 0.5))
+    candidates = np.random.default_rng(3).uniform(0.2, 1.0, (4, problem.segment_count))
+    builds = []
+    build = problem.family.batch_coefficients
+    monkeypatch.setattr(problem.family, "batch_coefficients", lambda *args: builds.append(1) or build(*args))
+    evaluation = problem.evaluate(candidates)
+    assert len(builds) == 1
+    monkeypatch.undo()
+    exact = problem.evaluate_durations(evaluation.durations)
+    np.testing.assert_allclose(evaluation.ratios, exact.ratios, rtol=1e-9)
+    np.testing.assert_allclose(evaluation.objective, exact.objective, rtol=1e-9)
+
+
+def test_via_point_states_that_are_not_finite_are_named_states():
+    """Free via-point states (hermite7) with a NaN are refused naming ``states`` and the entry, by every method
+    that takes them."""
+    problem = TimingProblem(VIA, "hermite7", LIMITS)
+    states = np.zeros((1, *problem.via_points.shape, 3))
+    states[0, 1, 0, 2] = np.nan
+    durations = np.array([[1.0, 1.0]])
+    for method in (problem.evaluate_durations, problem.evaluate_states, problem.coefficients):
+        with pytest.raises(InputError, match=r"^states\[0, 1, 0, 2\] is nan, not a finite number$"):
+            method(durations, states)
