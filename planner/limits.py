@@ -279,20 +279,6 @@ class JointLimits(ReadOnlyArrays):
         sides = np.where(np.abs(positions - self.upper) <= RESTING_DISTANCE, 1, 0)
         return np.where(np.abs(positions - self.lower) <= RESTING_DISTANCE, -1, sides)
 
-    def covering(self, positions: np.ndarray) -> "JointLimits":
-        """These limits with each position range widened just enough to hold ``positions`` (..., J) [rad].
-
-        For positions that ``range_violation`` accepts, within ``FEASIBILITY_TOLERANCE`` of their
-        range: a via-point written on a bound in other units (degrees against a URDF's radians) then
-        lies exactly on it, as the optimizers assume of a via-point on a bound. Returns ``self``
-        when every position is inside already."""
-        positions = self._positions(positions).reshape(-1, self.joint_count)
-        lower = np.minimum(self.lower, positions.min(axis=0))
-        upper = np.maximum(self.upper, positions.max(axis=0))
-        if np.array_equal(lower, self.lower) and np.array_equal(upper, self.upper):
-            return self
-        return self.with_overrides(lower=lower, upper=upper)
-
     def _positions(self, positions) -> np.ndarray:
         """``positions`` (..., J) [rad] as finite floats with one column per joint."""
         array = float_array("positions", positions)

@@ -301,7 +301,7 @@ def test_bad_input_raises_clear_error(via, durations, message):
     (lambda via: PiecewisePolynomial(np.zeros(0), np.zeros((0, 1, 4)), [0]), r"each at least 1, got shape"),
     (lambda via: PiecewisePolynomial(np.array([1e-110]), np.array([[[0, 0, 0, 1.0]]]), [0, 1]), "vanishes"),
     (lambda via: JointLimits.create(2).with_overrides(bogus=[1, 2]), "JointLimits has no field 'bogus'"),
-    (lambda via: JointLimits.create(2, lower=[0, 0], upper=[1, 1]).covering([1, 2, 3]), "2 values to a row"),
+    (lambda via: JointLimits.create(2, lower=[0, 0], upper=[1, 1]).range_violation([1, 2, 3]), "2 values to a row"),
     (lambda via: JointLimits.create(2, lower=[0, 0], upper=[1, 1]).bound_sides("ab"), "positions must be numeric"),
 ])
 def test_bad_arguments_from_python_are_input_errors(call, message):

@@ -120,20 +120,50 @@ def test_via_point_outside_range_is_infeasible():
 @pytest.mark.parametrize("rounding", [np.floor, np.ceil])
 def test_via_point_on_a_bound_within_rounding_is_planned_on_it(rounding):
     """A via-point written as 200 deg against a bound with a URDF's nine decimals (3.490658503 or
-    ..504 rad, just below or above it) is on the bound: accepted, the joint stops there, and the
-    result passes the exact check."""
+    ..504 rad, just below or above it) is on the bound: accepted, moved onto it (the limits stay as
+    given), the joint stops there, and the result passes the exact check against the limits given."""
     via = np.deg2rad(paper.VIA_POINTS_DEG)
     upper = rounding(np.deg2rad([180, 180, 200, 180, 180, 180]) * 1e9) / 1e9
     assert 0 < abs(via[2, 2] - upper[2]) < FEASIBILITY_TOLERANCE
     limits = paper.paper_limits().with_overrides(upper=upper)
     problem = TimingProblem(via, "hybrid", limits)
-    assert problem.limits.upper[2] == max(via[2, 2], upper[2])
-    assert np.array_equal(problem.limits.upper[[0, 1, 3, 4, 5]], upper[[0, 1, 3, 4, 5]])
+    assert problem.limits is limits and problem.via_points[2, 2] == min(via[2, 2], upper[2])
+    assert np.array_equal(np.delete(problem.via_points, 2, axis=0), np.delete(via, 2, axis=0))
     result = optimize(problem, seed=0)
     trajectory = problem.trajectory(result.durations)
     assert result.feasible and kinematic_figures(trajectory).violations(limits) == []
     at_rest = trajectory.evaluate(trajectory.via_times[2], order=1)[0, 2]
-    assert abs(at_rest) < 1e-9 and abs(trajectory.evaluate(trajectory.via_times[2])[0, 2] - via[2, 2]) < 1e-12
+    passed = trajectory.evaluate(trajectory.via_times[2])[0, 2]
+    assert abs(at_rest) < 1e-9 and abs(passed - min(via[2, 2], upper[2])) < 1e-12
+
+
+def test_a_via_point_just_within_the_tolerance_outside_its_bound_is_planned_on_the_bound():
+    """A hostile-input hunt's task (trigonometric, time-jerk weights [1e6, 0], limits of 1e8 deg/s, seven
+    values on range bounds): via-point 2 puts joint1 9.9999999e-10 rad below its lower bound, within the
+    1e-9 rad that makes it "on" the bound. Planned through it as given, the spline's rounding took the
+    position there past the tolerance, and the plan failed as infeasible after 158 s naming the via-point's
+    own value; it is moved onto the bound and planned, within the limits as given."""
+    from planner.pipeline import plan
+
+    lower = np.array([-122.7184278025889, -125.57715519928942])
+    task = {"version": 1, "name": "on_bound", "trajectory": {"family": "trigonometric", "min_segment_s": 0.001},
+            "optimizer": {"algorithm": "nlp", "objective": "time-jerk", "weights": [1e6, 0]},
+            "waypoints": {"joints_deg": [
+                [155.836511162433, -49.222753580111174], [-37.789581859767125, 107.72578076694231],
+                [-122.71842785988468, -47.32562030393717], [-98.98684669570304, 27.275743878507654],
+                [-98.98684669570304, 27.275743878507654], [155.836511162433, -52.615856500297824],
+                [-2.621988793795424, 133.87506563127604], [-2.62198877660669, -125.57715519928942],
+                [142.3323769713906, 63.43098341962127], [155.836511162433, 63.43098341962127]]},
+            "limits": {"velocity_deg_s": [115238003.60923181, 58278512.43207402],
+                       "acceleration_deg_s2": [58667777.24660493, 132291486.88809727],
+                       "jerk_deg_s3": [642283494.4106071, 673843036.2280074],
+                       "position_deg": [[lower[0], 155.836511162433], [lower[1], 133.875068496065]]}}
+    below = np.deg2rad(lower[0]) - np.deg2rad(task["waypoints"]["joints_deg"][2][0])
+    assert 0.99e-9 < below < FEASIBILITY_TOLERANCE
+    result = plan(task)
+    trajectory = result.trajectory
+    assert result.feasible and kinematic_figures(trajectory).violations(result.limits) == []
+    assert trajectory.evaluate(trajectory.via_times[2])[0, 0] == pytest.approx(np.deg2rad(lower[0]), abs=1e-12)
 
 
 def test_via_point_just_outside_its_range_reads_outside():

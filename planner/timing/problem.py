@@ -97,7 +97,11 @@ class TimingProblem:
 
     Attributes:
         given_via_points: (n, J) the via-points as given [rad].
-        via_points: (n', J) the distinct via-points the timing is computed for: repeats merged.
+        via_points: (n', J) the distinct via-points the timing is computed for: repeats merged, and a
+            value within ``FEASIBILITY_TOLERANCE`` outside its joint's range (accepted as on the bound: -160
+            deg in a task against a URDF bound of -2.792526803 rad) moved onto that bound, so that the
+            trajectory, checked against the limits as given, meets them there (left 1e-9 rad outside, the
+            spline's rounding at the via-point took it past the tolerance).
         via_index: (n,) the row of ``via_points`` each given via-point is.
 
     Args:
@@ -162,8 +166,8 @@ class TimingProblem:
                              f"{REPEAT_TOLERANCE:g} rad) and there are no duration bounds: the minimum time is "
                              f"unbounded below (moving without a limit: {free})")
         self._check_via_points_in_range(limits)
-        #: The limits, each position range widened to hold the via-points within tolerance of it.
-        self.limits = limits.covering(self.via_points)
+        self.via_points = np.clip(self.via_points, limits.lower, limits.upper)
+        self.limits = limits
         if self.bounds is not None:
             self._check_upper_bound_feasible()
 
