@@ -30,7 +30,11 @@ def test_unbounded_evaluate_builds_each_candidates_splines_once(monkeypatch):
     candidates = np.random.default_rng(3).uniform(0.2, 1.0, (4, problem.segment_count))
     builds = []
     build = problem.family.batch_coefficients
-    monkeypatch.setattr(problem.family, "batch_coefficients", lambda *args: builds.append(1) or build(*args))
+
+    def counted(*args):
+        builds.append(args)
+        return build(*args)
+    monkeypatch.setattr(problem.family, "batch_coefficients", counted)
     evaluation = problem.evaluate(candidates)
     assert len(builds) == 1
     monkeypatch.undo()
