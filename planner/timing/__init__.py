@@ -96,7 +96,7 @@ def _default_planner(problem: TimingProblem, *, seed: int | None = 0, progress: 
     settings = DEFAULT_SEARCH | settings
     explored = cuckoo_search(problem, seed=seed, progress=progress, **settings)
     unconverged = [start for start in explored.starts if start.status != "Solve_Succeeded"]
-    if explored.feasible and not unconverged and settings.get("polish") is False:
+    if settings.get("polish") is False and explored.feasible:  # the search alone, as asked: no NLP after it
         return explored
     try:
         shaped = shape_starts(problem, progress=progress)  # the NLP scaled by and started from the shapes too
