@@ -46,6 +46,7 @@ from typing import Callable, TypeVar
 
 import numpy as np
 import pinocchio as pin
+from scipy.spatial.transform import Rotation
 
 from .errors import IKError, InfeasibleError, TaskError
 from .ik import nearest_turn, solve_pose, turn_variants
@@ -99,7 +100,7 @@ def segment_deviation(a: pin.SE3, b: pin.SE3, positions: np.ndarray,
     phi = float(np.linalg.norm(arc))
     axis = arc / phi if phi > 0 else np.zeros(3)
     relative = np.einsum("ji,njk->nik", a.rotation, rotations)
-    quaternions = np.array([pin.Quaternion(r).coeffs() for r in relative])  # (x, y, z, w)
+    quaternions = Rotation.from_matrix(relative).as_quat()  # (x, y, z, w), either sign
     w, along = quaternions[:, 3], quaternions[:, :3] @ axis
     best = np.mod(np.arctan2(along, w), np.pi)  # theta / 2 of the unconstrained optimum, in [0, pi)
     halves = np.stack([np.zeros_like(w), np.full_like(w, phi / 2), np.clip(best, 0.0, phi / 2)])

@@ -107,8 +107,8 @@ class Robot:
 
     def forward_kinematics(self, q) -> pin.SE3:
         """Pose of the tool frame in the world for joint positions ``q`` [rad]."""
-        pin.framesForwardKinematics(self.model, self.data, self._configuration(q))
-        return self.data.oMf[self.tool_frame_id].copy()
+        pin.forwardKinematics(self.model, self.data, self._configuration(q))
+        return pin.updateFramePlacement(self.model, self.data, self.tool_frame_id).copy()
 
     def frame_jacobian(self, q) -> np.ndarray:
         """(6, nv) Jacobian of the tool frame in its LOCAL frame (linear first)."""
@@ -122,8 +122,8 @@ class Robot:
         q = self._configurations(q)
         positions, rotations = np.zeros((len(q), 3)), np.zeros((len(q), 3, 3))
         for k, configuration in enumerate(q):
-            pin.framesForwardKinematics(self.model, self.data, configuration)
-            placement = self.data.oMf[self.tool_frame_id]
+            pin.forwardKinematics(self.model, self.data, configuration)
+            placement = pin.updateFramePlacement(self.model, self.data, self.tool_frame_id)
             positions[k], rotations[k] = placement.translation, placement.rotation
         return positions, rotations
 

@@ -27,6 +27,8 @@ The integral of q'''^2 is a quadratic form in the coefficients whose matrix
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 #: The basis functions of theta, in coefficient order: (frequency k, ``cos`` or ``sin``).
@@ -61,11 +63,28 @@ def _complex(coefficients: np.ndarray, order: int = 0) -> np.ndarray:
     return (coefficients @ _COMPLEX.T) * (1j * _FREQUENCIES) ** order
 
 
+@functools.cache
+def _real_derivative(order: int) -> np.ndarray:
+    """(2 ORDER + 1, 8) the map from the real coefficients a to those of d^order q / dtheta^order in the
+    basis 1, cos k theta (k = 1 .. ORDER), sin k theta (k = 1 .. ORDER): q^(order) is real, so c_-k =
+    conj(c_k) and it is c_0 + sum_k 2 (Re c_k cos k theta - Im c_k sin k theta) (``_complex``)."""
+    complex_map = _COMPLEX[ORDER:] * ((1j * _FREQUENCIES[ORDER:]) ** order)[:, None]  # rows c_0 .. c_ORDER
+    return np.concatenate((complex_map[:1].real, 2 * complex_map[1:].real, -2 * complex_map[1:].imag))
+
+
 def _theta_values(coefficients: np.ndarray, theta: np.ndarray, order: int) -> np.ndarray:
-    """d^order q / dtheta^order at ``theta`` (..., P) for coefficients (..., 8): (..., P)."""
-    c = _complex(coefficients, order)
-    waves = np.exp(1j * theta[..., None] * _FREQUENCIES)  # (..., P, 2 ORDER + 1)
-    return np.real(np.einsum("...pk,...k->...p", waves, c))
+    """d^order q / dtheta^order at ``theta`` (..., P) for coefficients (..., 8): (..., P), from its real
+    coefficients (``_real_derivative``), cos k theta and sin k theta by the angle-sum recurrence from one
+    cosine and one sine per point (within a few units of the last place of exp(i k theta) evaluated for
+    each k, and 4 to 5 times faster)."""
+    real = (coefficients @ _real_derivative(order).T)[..., None]  # (..., 2 ORDER + 1, 1)
+    cos, sin = np.cos(theta), np.sin(theta)
+    cos_k, sin_k = cos, sin
+    result = real[..., 0, :] + real[..., 1, :] * cos_k + real[..., ORDER + 1, :] * sin_k
+    for k in range(2, ORDER + 1):
+        cos_k, sin_k = cos_k * cos - sin_k * sin, sin_k * cos + cos_k * sin
+        result = result + real[..., k, :] * cos_k + real[..., ORDER + k, :] * sin_k
+    return result
 
 
 def _hermite_matrix() -> np.ndarray:
