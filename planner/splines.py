@@ -150,9 +150,7 @@ class PiecewisePolynomial(ReadOnlyArrays):
         Raises:
             InputError: times that are not finite numbers, or an order that is not a whole number >= 0.
         """
-        if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or order < 0:
-            raise InputError(f"the derivative order must be a whole number >= 0, got {order!r}")
-        return self._derivatives(times, (int(order),))[0]
+        return self._derivatives(times, (checked_order(order),))[0]
 
     def _derivatives(self, times, orders: tuple[int, ...]) -> np.ndarray:
         """(len(orders), N, J) the derivatives of each order at ``times`` [s] (clamped to [0, T]).
@@ -218,13 +216,21 @@ class PiecewisePolynomial(ReadOnlyArrays):
     def segment_ends(self, order: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """q^(order) at the start and the end of every segment, and a bound on |q^(order)| over it, each (S, J).
 
-        ``segment_ends`` of the coefficients."""
-        return segment_ends(self.coefficients, self.durations, order, self.basis)
+        ``segment_ends`` of the coefficients.
+
+        Raises:
+            InputError: an order that is not a whole number >= 0."""
+        return segment_ends(self.coefficients, self.durations, checked_order(order), self.basis)
 
     def slowed(self, factor: float) -> "PiecewisePolynomial":
         """The same path run ``factor`` times slower (q_k(tau) = q(tau / k) on each segment): durations times k;
         power coefficient i divided by k^i; trigonometric coefficients unchanged (theta = SPAN tau / h keeps
-        its range)."""
+        its range).
+
+        Raises:
+            InputError: a factor that is not a finite number > 0."""
+        if not positive_finite(factor):
+            raise InputError(f"the slow-down factor must be a finite number > 0, got {shown(factor)}")
         factor = float(factor)
         coefficients = self.coefficients
         if self.basis == "power":
@@ -282,6 +288,17 @@ def _lost_segments(coefficients: np.ndarray, durations: np.ndarray, basis: str) 
     underflown = carried & (np.abs(terms) < np.finfo(float).tiny)
     flat = scaled.reshape(scaled.shape[0], -1)
     return ~np.isfinite(flat).all(axis=1) | underflown.reshape(underflown.shape[0], -1).any(axis=1)
+
+
+def checked_order(order) -> int:
+    """``order`` as the order of a derivative (a whole number >= 0).
+
+    Raises:
+        InputError: naming the order given.
+    """
+    if isinstance(order, (bool, np.bool_)) or not isinstance(order, (int, np.integer)) or order < 0:
+        raise InputError(f"the derivative order must be a whole number >= 0, got {shown(order)}")
+    return int(order)
 
 
 def checked_times(times) -> np.ndarray:

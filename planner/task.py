@@ -595,11 +595,14 @@ def task_document(task: Task) -> dict:
     """
     if not isinstance(task, Task):
         raise TaskError("", f"not a Task: {type(task).__name__}")
+    field = "name"  # the Task's field being written, for a refusal
     try:
         document = {"version": SCHEMA_VERSION, "name": task.name}
+        field = "robot"
         if task.robot is not None:
             robot = {"urdf": str(task.robot.urdf)} if task.robot.urdf is not None else {"name": task.robot.name}
             document["robot"] = robot | ({"tool_frame": task.robot.tool_frame} if task.robot.tool_frame else {})
+        field = "cartesian_waypoints"
         if task.cartesian_waypoints is not None:
             document["waypoints"] = {"cartesian": [
                 {"xyz_m": np.asarray(w.position, dtype=float).tolist(),
@@ -611,6 +614,7 @@ def task_document(task: Task) -> dict:
                                                             "tolerance_deg": float(np.rad2deg(task.path.tolerance_rad))}
                                                            if task.path.mode == "linear" else {})
         elif task.joint_waypoints is not None:
+            field = "joint_waypoints"
             document["waypoints"] = {"joints_deg": _degrees(task.joint_waypoints)}
             ik, default = task.ik, IKOptions()
             if (ik.branch, ik.seed, ik.start is None) != (default.branch, default.seed, True):
@@ -619,12 +623,13 @@ def task_document(task: Task) -> dict:
                 document["path"] = {"mode": task.path.mode}
         else:
             document["waypoints"] = None
+        field = "limits"
         limits: dict[str, Any] = {_LIMIT_KEY_OF[name]: _degrees(values) for name, values in task.limits.items()
                                   if name not in ("lower", "upper")}
         if "lower" in task.limits or "upper" in task.limits:
             limits["position_deg"] = np.stack((_degrees(task.limits["lower"]), _degrees(task.limits["upper"])),
                                               axis=-1).tolist()
-        given = task.robot_limits
+        field, given = "robot_limits", task.robot_limits
         if given.torque is not None:
             limits["torque_nm"] = given.torque if isinstance(given.torque, str) else np.asarray(given.torque).tolist()
         if given.tool_speed is not None:
@@ -633,9 +638,10 @@ def task_document(task: Task) -> dict:
             limits["tool_speed_deg_s"] = math.degrees(given.tool_angular_speed)
         if limits:
             document["limits"] = limits
+        field = "family, sample_rate_hz or min_segment_s"
         document["trajectory"] = {"family": task.family, "sample_rate_hz": task.sample_rate_hz,
                                   "min_segment_s": task.min_segment_s}
-        settings = task.optimizer
+        field, settings = "optimizer", task.optimizer
         unknown = sorted(set(settings) - set(_OPTIMIZER_FIELDS), key=str)
         if unknown:  # a Task changed by hand: its optimizer holds parsed fields, not the task file's keys
             raise TaskError(f"optimizer.{unknown[0]}", f"is no field of a Task's optimizer (it holds "
@@ -649,8 +655,8 @@ def task_document(task: Task) -> dict:
             {"bounds_s": list(settings["bounds"])} if settings["bounds"] is not None else {})
     except TaskError:  # one named here (an optimizer field no Task holds)
         raise
-    except (TypeError, ValueError, AttributeError, KeyError, IndexError) as exc:
-        raise TaskError("", f"the Task holds values no task file could ({type(exc).__name__}: {exc}); "
+    except (TypeError, ValueError, AttributeError, LookupError, ArithmeticError) as exc:
+        raise TaskError("", f"the Task's {field} holds values no task file could ({type(exc).__name__}: {exc}); "
                             f"build tasks with load_task, parse_task or make_task") from None
     return plain_values(document)
 

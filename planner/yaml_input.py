@@ -187,10 +187,13 @@ class _StrictComposing(yaml.composer.Composer, yaml.constructor.SafeConstructor)
             raise
         except yaml.constructor.ConstructorError as exc:
             raise _KeyedConstructorError(self._node_paths.get(id(node), ""), exc.problem, exc.problem_mark) from None
-        except (ValueError, TypeError, AttributeError, OverflowError) as exc:
+        except (ValueError, TypeError, AttributeError, OverflowError, LookupError) as exc:
+            # (PyYAML's own constructors raise KeyError for a !!bool it has no word for, IndexError for an
+            # empty or sign-only !!float: their text is the value again, or an index, not a reason)
             kind = node.tag.rsplit(":", 1)[-1]
+            reason = "" if isinstance(exc, LookupError) else f" ({shown(str(exc), 60)})"
             raise _KeyedConstructorError(self._node_paths.get(id(node), ""), f"cannot read {shown(node.value, 40)} as "
-                                         f"{kind} ({shown(str(exc), 60)})", node.start_mark) from None
+                                         f"{kind}{reason}", node.start_mark) from None
 
 
 class _KeyedConstructorError(yaml.constructor.ConstructorError):

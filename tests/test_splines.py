@@ -278,6 +278,12 @@ def test_bad_input_raises_clear_error(via, durations, message):
     (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate([0.1, np.nan]), "not a finite number"),
     (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate([0.1], order=-1), "order must be a whole"),
     (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate([0.1], order=1.5), "order must be a whole"),
+    # segment_ends and slowed took any argument (factorial's or float's own errors; hunt of 2026-12-08)
+    (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).segment_ends(-1), "order must be a whole.*got -1"),
+    (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).segment_ends("1"), "order must be a whole.*got '1'"),
+    (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).slowed("x"), "slow-down factor must be a finite"),
+    (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).slowed(0), "slow-down factor .* > 0, got 0"),
+    (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).slowed(np.nan), "slow-down factor .* got nan"),
     (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).evaluate([10**400]), "times must be numeric"),
     (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).sample("100"), "sample rate must be a number > 0 Hz"),
     (lambda via: get_family("hybrid").build(via, [1, 1, 1, 1]).sample(2 ** 2000), "sample rate must be a number"),

@@ -325,11 +325,16 @@ def test_a_file_name_that_cannot_name_the_task_asks_for_a_name_key(tmp_path, ste
     ("version: !!python/object:os.system x\n", "version"),
     ("limits:\n  jerk_deg_s3: [1, 2, 1e999]\n", "limits.jerk_deg_s3[2]"),
     ("waypoints: {joints_deg: [[0, 0], [1, !!float x]]}\n", "waypoints.joints_deg[1][1]"),
+    ("version: !!bool 1\n", "version"), ("waypoints: {joints_deg: [[0, 0], [1, !!float _]]}\n",
+                                         "waypoints.joints_deg[1][1]"),
+    ("waypoints: {joints_deg: [[0, 0], [1, !!float '']]}\n", "waypoints.joints_deg[1][1]"),
+    ("limits: {<<: !!bool yes please}\n", None), ("!!bool x: 1\n", None),
     ("? [a]\n: 1\n", None), ("version: 1\n---\nversion: 1\n", None), ("version: *nowhere\n", None),
 ])
 def test_scalars_yaml_cannot_convert_are_task_errors(tmp_path, text, key):
     """Named by the key path of the value YAML cannot convert (a number no float holds was named by the file
-    alone, hostile-input sweep of 2026-12-07), and by the file where the document itself is wrong."""
+    alone, hostile-input sweep of 2026-12-07; a !!bool or !!float PyYAML cannot read was an internal error,
+    sweep of 2026-12-08), and by the file where the document itself is wrong."""
     task = write(tmp_path, text)
     error = assert_refused(lambda: load_task(task), r"not valid YAML at line \d+, column \d+: ", key or str(task))
     assert len(str(error)) < 300
@@ -690,6 +695,10 @@ def test_a_hand_made_task_is_planned_as_a_task_file_would_give_it():
                          (replace(task, ik=IKOptions(branch="continuous")), "ik")):
         with pytest.raises(TaskError, match=f"^{key}: applies to cartesian waypoints only"):
             plan(changed)
+    for changed, field in ((replace(task, joint_waypoints=[[0, 0], [1, 10**400]]), "joint_waypoints"),  # an int
+                           (replace(task, limits={"velocity": [1, 10**400]}), "limits")):  # no float holds: it was
+        with pytest.raises(TaskError, match=f"the Task's {field} holds values no task file could .OverflowError"):
+            plan(changed)  # a bare OverflowError (hunt of 2026-12-08)
 
 
 
