@@ -53,3 +53,37 @@ def test_via_point_states_that_are_not_finite_are_named_states():
     for method in (problem.evaluate_durations, problem.evaluate_states, problem.coefficients):
         with pytest.raises(InputError, match=r"^states\[0, 1, 0, 2\] is nan, not a finite number$"):
             method(durations, states)
+
+
+def _quadrature_jerk_energy(problem: TimingProblem, durations: np.ndarray) -> float:
+    """Integral of the squared jerk over the trajectory [rad^2/s^5], summed over joints: the trajectory built
+    from ``durations`` and its jerk evaluated at 8 Gauss-Legendre nodes inside every segment (exact for the
+    squared jerk of these families, of degree <= 4), not the closed form the problem uses."""
+    trajectory = problem.trajectory(durations)
+    nodes, weights = np.polynomial.legendre.leggauss(8)
+    total = 0.0
+    for start, end in zip(trajectory.knot_times[:-1], trajectory.knot_times[1:]):
+        t = (start + end) / 2 + (end - start) / 2 * nodes
+        total += (end - start) / 2 * weights @ (trajectory.evaluate(t, order=3) ** 2).sum(axis=1)
+    return total
+
+
+@pytest.mark.parametrize("family", ["cubic", "quintic"])
+def test_time_jerk_repair_stops_where_the_objective_is_stationary_along_the_ray(family):
+    """With ``time-jerk``, a jerk weight large enough that the limits do not bind, the repair scales each
+    candidate of a batch to the optimum of K_t T s + K_j E / s^5 along its ray: there K_t T = 5 K_j E, with the
+    jerk energy E integrated by quadrature of the built trajectory's jerk (an independent computation). A factor off by
+    any constant, or T taken over the whole batch, misses it."""
+    weights = (1.0, 40.0)
+    problem = TimingProblem(VIA, family, LIMITS, objective="time-jerk", weights=weights)
+    candidates = np.array([[0.6, 0.9], [1.1, 0.5], [0.8, 0.8]])[:, :problem.segment_count]
+    if problem.segment_count > 2:
+        candidates = np.random.default_rng(5).uniform(0.5, 1.2, (3, problem.segment_count))
+    repaired = problem.evaluate(candidates)
+    assert repaired.feasible.all()
+    for durations, objective in zip(repaired.durations, repaired.objective):
+        energy = _quadrature_jerk_energy(problem, durations)
+        assert weights[0] * durations.sum() == pytest.approx(5 * weights[1] * energy, rel=1e-6)
+        assert objective == pytest.approx(weights[0] * durations.sum() + weights[1] * energy, rel=1e-6)
+        limited = problem.evaluate_durations(durations[None] / 1.5)
+        assert limited.feasible[0]  # the limits do not bind: the ray's optimum set the scale
