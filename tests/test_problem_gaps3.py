@@ -87,3 +87,17 @@ def test_time_jerk_repair_stops_where_the_objective_is_stationary_along_the_ray(
         assert objective == pytest.approx(weights[0] * durations.sum() + weights[1] * energy, rel=1e-6)
         limited = problem.evaluate_durations(durations[None] / 1.5)
         assert limited.feasible[0]  # the limits do not bind: the ray's optimum set the scale
+
+
+def test_a_via_point_exactly_the_repeat_tolerance_away_is_merged_and_one_a_float_further_is_not():
+    """"Within 1e-9 rad" (REPEAT_TOLERANCE, README) includes the tolerance itself: a via-point exactly that far
+    from the last one kept, in its farthest joint, is the same via-point; the next float beyond is a via-point of
+    its own (a mutant of the comparison, >= for >, lived)."""
+    from planner.timing.problem import REPEAT_TOLERANCE
+
+    for step, merged in ((REPEAT_TOLERANCE, True), (np.nextafter(REPEAT_TOLERANCE, 1.0), False)):
+        via = np.array([[0.0, 0.0], [step, -step / 2], [0.5, 0.3]])
+        assert np.abs(via[1] - via[0]).max() == step  # the difference itself, exactly
+        problem = TimingProblem(via, "cubic", LIMITS)
+        assert len(problem.via_points) == (2 if merged else 3)
+        assert problem.via_index.tolist() == ([0, 0, 1] if merged else [0, 1, 2])
