@@ -101,3 +101,14 @@ def test_a_via_point_exactly_the_repeat_tolerance_away_is_merged_and_one_a_float
         problem = TimingProblem(via, "cubic", LIMITS)
         assert len(problem.via_points) == (2 if merged else 3)
         assert problem.via_index.tolist() == ([0, 0, 1] if merged else [0, 1, 2])
+
+
+def test_the_set_up_refusals_name_the_argument_and_what_was_given():
+    """``TimingProblem`` names what it refuses: limits of another type by that type, a via-point that is not a
+    finite number by its place in ``via_points`` (mutants that emptied or misnamed these messages lived)."""
+    with pytest.raises(InputError, match=r"^limits must be a JointLimits \(JointLimits.create\), got dict$"):
+        TimingProblem(VIA, "cubic", {"velocity": [1.0, 1.0]})
+    bad = VIA.copy()
+    bad[1, 1] = np.nan
+    with pytest.raises(InputError, match=r"^via_points\[1, 1\] is nan, not a finite number$"):
+        TimingProblem(bad, "cubic", LIMITS)
