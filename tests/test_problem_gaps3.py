@@ -112,3 +112,17 @@ def test_the_set_up_refusals_name_the_argument_and_what_was_given():
     bad[1, 1] = np.nan
     with pytest.raises(InputError, match=r"^via_points\[1, 1\] is nan, not a finite number$"):
         TimingProblem(bad, "cubic", LIMITS)
+
+
+def test_a_via_point_on_the_largest_position_is_taken_and_one_a_float_beyond_is_refused():
+    """The largest position the planner takes (LARGEST_POSITION_DEG, in rad) is itself taken; the next float
+    beyond it is refused by name (a mutant that refused the bound itself lived)."""
+    from planner.limits import LARGEST_POSITION_DEG
+
+    largest = np.deg2rad(LARGEST_POSITION_DEG)
+    on_it = np.array([[largest, 0.0], [largest - 1.0, 0.5]])
+    assert TimingProblem(on_it, "cubic", LIMITS).via_points[0, 0] == largest
+    beyond = on_it.copy()
+    beyond[0, 0] = np.nextafter(largest, np.inf)
+    with pytest.raises(InputError, match=r"^via-point 0, joint 0: .* rad is beyond the largest position"):
+        TimingProblem(beyond, "cubic", LIMITS)
