@@ -76,9 +76,7 @@ def test_time_jerk_repair_stops_where_the_objective_is_stationary_along_the_ray(
     any constant, or T taken over the whole batch, misses it."""
     weights = (1.0, 40.0)
     problem = TimingProblem(VIA, family, LIMITS, objective="time-jerk", weights=weights)
-    candidates = np.array([[0.6, 0.9], [1.1, 0.5], [0.8, 0.8]])[:, :problem.segment_count]
-    if problem.segment_count > 2:
-        candidates = np.random.default_rng(5).uniform(0.5, 1.2, (3, problem.segment_count))
+    candidates = np.random.default_rng(5).uniform(0.5, 1.2, (3, problem.segment_count))  # cubic: 4 segments
     repaired = problem.evaluate(candidates)
     assert repaired.feasible.all()
     for durations, objective in zip(repaired.durations, repaired.objective):
