@@ -234,6 +234,49 @@ def normalised_weights(s: np.ndarray, order: int) -> np.ndarray:
     return _theta_values(np.eye(len(BASIS)), theta[None, :], order) * SPAN ** order
 
 
+#: t = tan(phi / 2) at the ends of a segment, phi = theta - SPAN / 2 (``half_angle_map``).
+HALF_ANGLE_BOUND = float(np.tan(SPAN / 4))
+
+
+def _half_angle_powers() -> np.ndarray:
+    """(2 ORDER + 1, 2 ORDER + 1) column p: the coefficients of t^p in powers of u, t = HALF_ANGLE_BOUND (2 u - 1)."""
+    out = np.zeros((2 * ORDER + 1, 2 * ORDER + 1))
+    for power in range(2 * ORDER + 1):
+        column = np.polynomial.polynomial.polypow([-HALF_ANGLE_BOUND, 2 * HALF_ANGLE_BOUND], power)
+        out[:len(column), power] = column
+    return out
+
+
+@functools.cache
+def half_angle_map(order: int) -> np.ndarray:
+    """(2 ORDER + 1, 8) the map from a segment's coefficients a to those, in powers of u in [0, 1], of the
+    polynomial (1 + t^2)^ORDER d^order q / dtheta^order, where theta = SPAN / 2 + phi and t = tan(phi / 2) =
+    HALF_ANGLE_BOUND (2 u - 1): u runs over [0, 1] as theta runs over [0, SPAN].
+
+    cos k phi + i sin k phi = (1 + i t)^(2 k) / (1 + t^2)^k, so (1 + t^2)^ORDER cos k phi is the polynomial
+    Re (1 + i t)^(2 k) (1 + t^2)^(ORDER - k) (sin: Im), of degree 2 ORDER, and cos k theta, sin k theta follow
+    by the angle sums with k SPAN / 2. The factor (1 + t^2)^ORDER (``HALF_ANGLE_DENOMINATOR``) is positive, so
+    the derivative is >= 0 on the segment exactly where this polynomial is >= 0 on [0, 1]: the NLP certifies
+    it with Lukacs' form of degree 8 (``timing/sos.py``). Centred on the segment, 1 + t^2 stays within
+    [1, 1.45] (the factor within [1, 4.38]); t = tan(theta / 2) would take it to 6.8 (2,200)."""
+    polynomial = np.polynomial.polynomial
+    in_t = np.zeros((2 * ORDER + 1, 2 * ORDER + 1))  # columns: 1, cos k theta (k = 1 .. ORDER), sin k theta
+    for k in range(ORDER + 1):
+        rotation = polynomial.polypow([1.0, 1j], 2 * k)
+        rest = polynomial.polypow([1.0, 0.0, 1.0], ORDER - k)
+        cos_phi, sin_phi = (np.pad(part, (0, 2 * ORDER + 1 - len(part))) for part in
+                            (polynomial.polymul(rotation.real, rest), polynomial.polymul(rotation.imag, rest)))
+        cos_centre, sin_centre = np.cos(k * SPAN / 2), np.sin(k * SPAN / 2)
+        in_t[:, k] = cos_centre * cos_phi - sin_centre * sin_phi
+        if k > 0:
+            in_t[:, ORDER + k] = sin_centre * cos_phi + cos_centre * sin_phi
+    return _half_angle_powers() @ in_t @ _real_derivative(order)
+
+
+#: (2 ORDER + 1,) the coefficients of (1 + t^2)^ORDER in powers of u (``half_angle_map``).
+HALF_ANGLE_DENOMINATOR = _half_angle_powers() @ np.polynomial.polynomial.polypow([1.0, 0.0, 1.0], ORDER)
+
+
 #: (8, 8) G with integral_0^1 (h^3 q'''(s h))^2 ds = a^T G a: SPAN^5 ``JERK_GRAM``; the jerk energy of a
 #: segment is h^-5 times it.
 NORMALISED_JERK_GRAM = SPAN ** 5 * JERK_GRAM

@@ -176,3 +176,29 @@ def test_normalised_weights_give_the_scaled_derivative(a, h, order):
 def test_the_normalised_jerk_gram_gives_the_jerk_energy(a, h):
     expected = trig.segment_jerk_energy(a, h)
     assert a @ trig.NORMALISED_JERK_GRAM @ a / h ** 5 == pytest.approx(expected, rel=1e-10, abs=1e-300)
+
+
+def basis_derivative(coefficients: np.ndarray, theta: np.ndarray, order: int) -> np.ndarray:
+    """d^order q / dtheta^order from the basis as written, term by term: the order-th derivative of cos k theta
+    is k^order cos(k theta + order pi / 2), of sin k theta k^order sin(k theta + order pi / 2)."""
+    shift = order * np.pi / 2
+    return sum(a * k ** order * (np.cos(k * theta + shift) if kind == "cos" else np.sin(k * theta + shift))
+               for a, (k, kind) in zip(coefficients, trig.BASIS))
+
+
+@given(arrays(float, 8, elements=st.floats(-3.0, 3.0)), st.sampled_from([0, 1, 2, 3]))
+def test_the_half_angle_polynomial_is_the_derivative_times_a_positive_factor(a, order):
+    """With theta = SPAN / 2 + 2 arctan(HALF_ANGLE_BOUND (2 u - 1)) (u from 0 to 1 takes theta over the
+    segment), the degree-8 polynomial of ``half_angle_map`` is the theta derivative written out term by term
+    times ``HALF_ANGLE_DENOMINATOR``'s polynomial, which is (1 + t^2)^4: between 1 and 4.38, so the two have
+    the same sign (what the NLP's forms certify)."""
+    u = np.linspace(0.0, 1.0, 201)
+    t = trig.HALF_ANGLE_BOUND * (2 * u - 1)
+    theta = trig.SPAN / 2 + 2 * np.arctan(t)
+    assert theta[0] == pytest.approx(0.0, abs=1e-15) and theta[-1] == pytest.approx(trig.SPAN)
+    factor = np.polynomial.polynomial.polyval(u, trig.HALF_ANGLE_DENOMINATOR)
+    np.testing.assert_allclose(factor, (1 + t ** 2) ** 4, rtol=1e-13)
+    assert factor.min() == pytest.approx(1.0) and factor.max() == pytest.approx(4.3775, abs=1e-4)
+    found = np.polynomial.polynomial.polyval(u, trig.half_angle_map(order) @ a)
+    scale = 1 + np.abs(a).sum() * 4 ** order
+    np.testing.assert_allclose(found, factor * basis_derivative(a, theta, order), atol=1e-12 * scale)

@@ -120,6 +120,19 @@ class SegmentBlock:
         return np.array([factorial(i) / factorial(i - order) * s ** (i - order) if i >= order else np.zeros_like(s)
                          for i in range(self.degree + 1)])
 
+    def certified_map(self, order: int) -> np.ndarray:
+        """(P + 1, D + 1) M whose product with b holds the coefficients, in powers of u in [0, 1] over the
+        segment, of w(u) h^order q^(order) with w > 0, the polynomial an exact certificate bounds: for
+        polynomials u = s, w = 1 and M[i - order, i] = i! / (i - order)! (P = D - order); for the
+        trigonometric basis SPAN^order ``trigonometric.half_angle_map`` (P = 8, w
+        ``trigonometric.HALF_ANGLE_DENOMINATOR``)."""
+        if self.basis == "trigonometric":
+            return trigonometric.SPAN ** order * trigonometric.half_angle_map(order)
+        out = np.zeros((self.degree - order + 1, self.degree + 1))
+        for i in range(order, self.degree + 1):
+            out[i - order, i] = factorial(i) / factorial(i - order)
+        return out
+
     def jerk_gram(self) -> np.ndarray:
         """(D + 1, D + 1) G with integral_0^1 (h^3 q^(3)(s h))^2 ds = b^T G b: for polynomials
         i! / (i - 3)! k! / (k - 3)! / (i + k - 5) (i, k >= 3); ``trigonometric.NORMALISED_JERK_GRAM``."""
@@ -561,7 +574,9 @@ TRIGONOMETRIC_MAP = np.stack([trigonometric.hermite_coefficients(unit[:4], unit[
 
 class TrigonometricFormulation(Hermite7Formulation):
     """``trigonometric`` with free via-point states: ``Hermite7Formulation`` with Simon & Isik's segments
-    (``TRIGONOMETRIC_MAP``, basis ``trigonometric``), every extreme inside a segment bounded by cuts.
+    (``TRIGONOMETRIC_MAP``, basis ``trigonometric``), every extreme inside a segment bounded by a certificate
+    (Lukacs' forms through ``trigonometric.half_angle_map`` for the velocity, acceleration and jerk, cuts for
+    the position and beside robot rows).
 
     The implied rows' gains are Videnskii's inequality for a trigonometric polynomial t of degree n = 4
     on an interval of length 2 omega = SPAN = 3 pi / 4 in theta: max |t'| <= 2 n^2 cot(omega / 2) max |t|

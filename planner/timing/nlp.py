@@ -58,12 +58,17 @@ By Lukacs' theorem such a polynomial is a sum of squares weighted by s and
 * f of degree 4 to 7 where the via-point states are free (hermite7's velocity,
   acceleration and jerk): Lukacs' form with the Gram matrices' triangular
   factors as variables (``sos.py``: 9 to 16 per certificate, d + 1 equality
-  rows), exact. The first round puts one on every side of every such quantity
+  rows), exact. trigonometric's velocity, acceleration and jerk likewise: no
+  polynomial in s, but (1 + t^2)^4 f is one of degree 8 in u, t = tan(phi / 2)
+  (``trigonometric.half_angle_map``; 25 variables per form), with the bound
+  times that positive factor. The first round puts one on every side of every such quantity
   that its start's extremes lie on (both sides where none lies inside): cut
   rounds re-placed cuts at the moving extremes for 12 rounds on the paper's
   case (317-338 iterations per start) and ended 1e-7 above the optimum; with
-  these one round of 49-53 iterations reaches it (16.4720805 s). Not beside
-  the robot rows (cuts there, ``_certify``).
+  these one round of 49-53 iterations reaches it (16.4720805 s; trigonometric:
+  12 rounds of cuts, 427 and 443 iterations, 8 s; with forms one round of 70
+  and 77, 1.3 s, ``FORM_IPOPT_OPTIONS``). Not beside the robot rows (cuts
+  there, ``_certify``).
 
 Rounds. Certificates are added only where needed: a round solves, checks the
 trajectory with the project's exact kinematics (``segment_extrema``), and
@@ -84,12 +89,12 @@ import logging
 import os
 import time
 from dataclasses import dataclass, replace
-from math import factorial
 from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
 
+from .. import trigonometric
 from ..concurrency import map_forked, map_forked_until
 from ..interrupts import check as check_interrupted
 from ..kinematics import batch_scale_factors, jerk_energy, max_abs, position_range, segment_extrema
@@ -158,6 +163,15 @@ IPOPT_OPTIONS = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
                  "ipopt.constr_viol_tol": 1e-10, "ipopt.max_iter": 500, "ipopt.mumps_mem_percent": 50,
                  "ipopt.alpha_for_y": "safer-min-dual-infeas", "ipopt.bound_relax_factor": 0.0}
 
+#: IPOPT's tolerances for a program with Lukacs' forms (``sos.py``). Where a form holds its quantity on the
+#: bound, its Gram matrix is singular and its triangular factor not unique: IPOPT reaches the optimum's total
+#: early and then wanders along those factors with full steps that leave 1e-6 to 1e-4 of the form's rows unmet,
+#: short of 1e-10. With 1e-8 (scripts/bench_scale.py's first walks, n = 8 to 32, and the paper case) every start
+#: of hermite7 and trigonometric converged (at 1e-10: 7 of 24 starts detected an infeasible problem or stopped
+#: at the acceptable level), in 42-95 iterations instead of 49-479, 1.1 to 10 times faster, each total 2e-8 to
+#: 7e-8 of itself higher (trigonometric, paper case: 16.7156129 s against 16.7156125 s, 1.29 s against 5.05 s).
+FORM_IPOPT_OPTIONS = {"ipopt.tol": 1e-8, "ipopt.constr_viol_tol": 1e-8}
+
 #: IPOPT's settings for a round that starts from an earlier round's solution and multipliers (``TimingNLP.solve``:
 #: the same program again with the robot model refitted, or a program with certificates added, whose new
 #: rows and variables start at zero multipliers, ``_Program.carried``), and for every solve with the robot
@@ -208,7 +222,10 @@ class Certificate:
         touch: for a touch, the end (0 or 1) where the polynomial has its double root.
         margin: for a cut of a position that was beyond its range there, how far inside the range it
             holds it [rad] (``POSITION_CUT_MARGIN``); 0 otherwise.
-        sos: Lukacs' exact form (degree 4 to 7, ``sos.py``) rather than a cut.
+        sos: Lukacs' exact form (degree 4 to 8, ``sos.py``) rather than a cut.
+        half_angle: the form certifies a trigonometric segment's quantity through t = tan(phi / 2)
+            (``trigonometric.half_angle_map``: a polynomial of degree 8 in u, its constant bound times
+            ``trigonometric.HALF_ANGLE_DENOMINATOR``).
     """
 
     block: int
@@ -221,11 +238,12 @@ class Certificate:
     touch: int | None = None
     margin: float = 0.0
     sos: bool = False
+    half_angle: bool = False
 
     @property
     def kind(self) -> str:
         """``quadratic`` (exact, one variable), ``cubic`` (exact, two), ``touch`` (exact, none), ``sos4`` ..
-        ``sos7`` (exact, ``sos.factor_count``) or ``cut`` (none)."""
+        ``sos8`` (exact, ``sos.factor_count``) or ``cut`` (none)."""
         if self.touch is not None:
             return "touch"
         if self.sos:
@@ -241,6 +259,13 @@ class Certificate:
     def place(self) -> tuple[int, int, int, int, int]:
         """What it bounds: (block, row, joint, order, side)."""
         return self.block, self.row, self.joint, self.order, self.side
+
+    def bound_weights(self) -> np.ndarray:
+        """(degree + 1,) the coefficients of the polynomial the bound is multiplied by in the certified one:
+        1, or the half-angle factor (``half_angle``)."""
+        if self.half_angle:
+            return trigonometric.HALF_ANGLE_DENOMINATOR
+        return np.eye(self.degree + 1)[0]
 
     def model(self) -> np.ndarray:
         """(rows, degree + 1): the map from f's coefficients to those of the certified polynomial:
@@ -493,8 +518,8 @@ class TimingNLP:
         # (up to 12, in a trust region) and each solved the program with every form again (hermite7 with a
         # tool-speed cap, scripts/bench_robot_limits.py: PUMA 0.25 m/s 13.8 -> 63.8 s, 30 deg/s 11.5 -> 74.7 s
         # and 2.5 % longer, UR5 0.25 m/s 8.6 -> 26.4 s); cuts there, as before.
-        free = (self.problem.family.free_states and self.problem.family.basis != "trigonometric"
-                and self.robot is None)
+        free = self.problem.family.free_states and self.robot is None
+        half_angle = self.problem.family.basis == "trigonometric"  # its forms through t = tan(phi / 2)
         for b, block in enumerate(self.blocks):
             orders = self._certified_orders(block)
             if not orders:
@@ -514,10 +539,12 @@ class TimingNLP:
                         upper, lower = upper | (f[:, joint] >= middle), lower | (f[:, joint] < middle)
                     bounded = {1: bool(np.isfinite(high)), -1: bool(np.isfinite(low))}  # no cut on an absent
                     # bound (a joint without a range beside one with it): its row would be inf - inf
-                    exact = free and order >= 1 and block.degree - order in SOS_DEGREES
+                    exact = free and order >= 1 and (half_angle or block.degree - order in SOS_DEGREES)
+                    degree = 2 * trigonometric.ORDER if exact and half_angle else block.degree - order
                     for side, near in ((1, upper), (-1, lower)):
                         for row, c in np.argwhere(near & inside[:, joint] & bounded[side]):
-                            found = Certificate(b, int(row), joint, order, side, block.degree - order, sos=exact)
+                            found = Certificate(b, int(row), joint, order, side, degree, sos=exact,
+                                                half_angle=exact and half_angle)
                             beyond = side * (f[row, joint, c] - (high if side > 0 else low)) > FEASIBILITY_TOLERANCE
                             if order == 0 and beyond and found.kind == "cut":
                                 found = replace(found, margin=POSITION_CUT_MARGIN)
@@ -530,7 +557,8 @@ class TimingNLP:
                         # would hold the quantity there, and the first solve would make it anything
                         for row in np.flatnonzero(~inside[:, joint].any(axis=-1)):
                             for side, location in itertools.product([k for k in (1, -1) if bounded[k]], FLAT_CUTS):
-                                found = Certificate(b, int(row), joint, order, side, block.degree - order, sos=exact)
+                                found = Certificate(b, int(row), joint, order, side, degree, sos=exact,
+                                                    half_angle=exact and half_angle)
                                 changed |= _place(result, placed, found, location)
         return result, changed
 
@@ -548,12 +576,15 @@ class TimingNLP:
         side = np.array([c.side for c in certificates], dtype=float)
         bound = np.array([self._bounds(c.order, c.joint)[c.side > 0] for c in certificates])
         scale = np.array([1.0 if c.order == 0 else abs(b) for c, b in zip(certificates, bound)])
-        constant = _like(f[0], side * bound / scale)
+        constant = side * bound / scale
+        bound_weights = np.zeros((len(certificates), rows))
+        for i, c in enumerate(certificates):
+            bound_weights[i, :c.degree + 1] = c.bound_weights()[:rows]
         factor = _like(f[0], side / scale)
         p = []
         for j in range(rows):
             model = sum(_like(f[i], weights[:, j, i]) * f[i] for i in range(len(f)))
-            p.append((constant if j == 0 else 0) - factor * model)
+            p.append(_like(f[0], constant * bound_weights[:, j]) - factor * model)
         return p
 
     def _certificate_start(self, certificates: list[Certificate], coefficients: np.ndarray,
@@ -565,12 +596,14 @@ class TimingNLP:
             return np.zeros(0)
         f = np.zeros((max(c.degree for c in certificates) + 1, len(certificates)))
         for i, c in enumerate(certificates):
+            if c.kind in ("cut", "touch"):
+                continue
             block = self.blocks[c.block]
             segment = block.segments[c.row]
-            powers = np.arange(block.degree + 1)
-            normalised = coefficients[segment, c.joint, :block.degree + 1] * h[segment] ** powers
-            falling = [factorial(k) / factorial(k - c.order) for k in range(c.order, block.degree + 1)]
-            f[:c.degree + 1, i] = normalised[c.order:] * falling / h[segment] ** c.order
+            normalised = coefficients[segment, c.joint, :block.degree + 1]
+            if block.basis != "trigonometric":  # P(s)'s coefficients from those in powers of the time
+                normalised = normalised * h[segment] ** np.arange(block.degree + 1)
+            f[:c.degree + 1, i] = block.certified_map(c.order) @ normalised / h[segment] ** c.order
         values = []
         for kind, chosen in _kinds(certificates):
             if kind in ("cut", "touch"):
@@ -841,7 +874,8 @@ class _Program:
         # Not expanded to scalar form: building that costs more than it saves, with certificates too
         # (quintic, n = 128: 15.3 s expanded, 5.9 s not; hermite7 paper case 8.3 s, 2.8 s; hybrid,
         # n = 1024, without certificates: 3.5 s, 2.2 s).
-        options: dict[str, Any] = {**IPOPT_OPTIONS, **nlp.ipopt, **(WARM_IPOPT_OPTIONS if warm else {}),
+        forms = FORM_IPOPT_OPTIONS if any(c.sos for c in certificates) else {}
+        options: dict[str, Any] = {**IPOPT_OPTIONS, **forms, **nlp.ipopt, **(WARM_IPOPT_OPTIONS if warm else {}),
                                    "expand": False}
         if remaining is not None:
             options["ipopt.max_wall_time"] = max(remaining, 1e-3)
@@ -894,11 +928,12 @@ class _Program:
 def _certified_quantities(ca, certificates: list[Certificate], blocks: list[SegmentBlock], h) -> list:
     """Coefficients of f(s) = q^(order)(s h) = h^-order P^(order)(s) of every certificate, power by power.
 
-    A trigonometric segment's f is no polynomial in s; its certificates are all cuts, which only evaluate f
-    at their centre, so its f is taken as the constant f(centre) (``SegmentBlock.weights``)."""
+    A trigonometric segment's f is no polynomial in s: for its cuts, which only evaluate f at their centre,
+    f is taken as the constant f(centre) (``SegmentBlock.weights``); for its forms (``half_angle``), as the
+    polynomial in u of ``SegmentBlock.certified_map``, as the polynomial families' f is."""
     f = [ca.MX.zeros(len(certificates), 1) for _ in range(max(c.degree for c in certificates) + 1)]
-    for b, order in sorted({(c.block, c.order) for c in certificates}):
-        chosen = [i for i, c in enumerate(certificates) if (c.block, c.order) == (b, order)]
+    for b, order, half_angle in sorted({(c.block, c.order, c.half_angle) for c in certificates}):
+        chosen = [i for i, c in enumerate(certificates) if (c.block, c.order, c.half_angle) == (b, order, half_angle)]
         block = blocks[b]
         rows = np.array([certificates[i].row for i in chosen])
         joints = np.array([certificates[i].joint for i in chosen])
@@ -908,16 +943,16 @@ def _certified_quantities(ca, certificates: list[Certificate], blocks: list[Segm
         # certificates x chosen entries to build, every round).
         spread = ca.DM(ca.Sparsity.triplet(len(certificates), len(chosen), list(chosen), list(range(len(chosen)))),
                        1.0)
-        if block.basis == "trigonometric":
+        if block.basis == "trigonometric" and not half_angle:
             weights = block.weights(np.array([certificates[i].centre for i in chosen]), order)  # (8, chosen)
             at_centre = sum(ca.DM(weights[i]) * _pick(ca, ca.vec(block.coefficients[i]), flat)
                             for i in range(len(block.coefficients)))
             f[0] = f[0] + ca.mtimes(spread, at_centre * inverse)
             continue
-        for power in range(block.degree - order + 1):
-            falling = factorial(power + order) / factorial(power)
-            term = falling * _pick(ca, ca.vec(block.coefficients[power + order]), flat) * inverse
-            f[power] = f[power] + ca.mtimes(spread, term)
+        picked = [_pick(ca, ca.vec(coefficient), flat) for coefficient in block.coefficients]
+        for power, row in enumerate(block.certified_map(order)):
+            term = sum(float(weight) * picked[i] for i, weight in enumerate(row) if weight != 0)
+            f[power] = f[power] + ca.mtimes(spread, term * inverse)
     return f
 
 

@@ -1,4 +1,4 @@
-"""Exact certificates that a polynomial of degree 4 to 7 is non-negative on [0, 1] (``nlp.py``).
+"""Exact certificates that a polynomial of degree 4 to 8 is non-negative on [0, 1] (``nlp.py``).
 
 Lukacs' theorem: p of degree d is >= 0 on [0, 1] if and only if
 
@@ -17,7 +17,7 @@ d + 1 polynomial equations in p's coefficients and the factors' entries z:
 c_k(p) the Chebyshev coefficients of p (linear in p) and H_k constant symmetric matrices
 (``sos_forms``). These are exact: the NLP's optimum with them is the true one, where a cut (p at
 one point) only approaches it over rounds of re-placed cuts. Sizes: degree 4, 9 entries
-(L 3 x 3, M 2 x 2); 5, 12; 6, 16; 7, 20.
+(L 3 x 3, M 2 x 2); 5, 12; 6, 16; 7, 20; 8, 25.
 """
 
 from __future__ import annotations
@@ -26,8 +26,9 @@ import functools
 
 import numpy as np
 
-#: Degrees certified this way (a quadratic or cubic has its own exact certificate, ``nlp.py``).
-SOS_DEGREES = (4, 5, 6, 7)
+#: Degrees certified this way (a quadratic or cubic has its own exact certificate, ``nlp.py``; degree 8 is a
+#: trigonometric segment's, ``trigonometric.half_angle_map``).
+SOS_DEGREES = (4, 5, 6, 7, 8)
 
 
 def gram_sizes(degree: int) -> tuple[int, int]:
