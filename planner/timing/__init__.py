@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import inspect
+import time
 from dataclasses import replace
 from typing import Callable
 
@@ -90,9 +91,11 @@ def _default_planner(problem: TimingProblem, *, seed: int | None = 0, progress: 
     to 0.83893 s, which SLSQP from 24 random starts and differential evolution confirm). With
     ``polish: false`` (no NLP after the search) the shapes run only where the search ended infeasible.
     Larger problems: the NLP from the cheap shapes (``shape_starts``), where exploring
-    costs more than it finds. Cuckoo Search ``settings``, when given, apply at any size."""
+    costs more than it finds. Cuckoo Search ``settings``, when given, apply at any size. The result's
+    ``wall_time_s`` is the whole run's, both NLPs' included, whichever result it keeps."""
     if problem.segment_count > EXPLORED_SEGMENTS and not settings:
         return shape_starts(problem, progress=progress)
+    began = time.perf_counter()
     settings = DEFAULT_SEARCH | settings
     explored = cuckoo_search(problem, seed=seed, progress=progress, **settings)
     unconverged = [start for start in explored.starts if start.status != "Solve_Succeeded"]
@@ -109,8 +112,9 @@ def _default_planner(problem: TimingProblem, *, seed: int | None = 0, progress: 
         why = ("ended infeasible" if not explored.feasible else
                f"did not converge (start {unconverged[0].label}: IPOPT {unconverged[0].status})" if unconverged else
                f"ended higher ({explored.objective:.9g})")
-        return replace(shaped, stop_reason=f"the NLP from Cuckoo Search's nests {why}; {shaped.stop_reason}")
-    return explored
+        return replace(shaped, stop_reason=f"the NLP from Cuckoo Search's nests {why}; {shaped.stop_reason}",
+                       wall_time_s=time.perf_counter() - began)
+    return replace(explored, wall_time_s=time.perf_counter() - began)
 
 
 def _paper_cuckoo(problem: TimingProblem, **settings) -> OptimizationResult:
