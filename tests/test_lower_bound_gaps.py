@@ -38,10 +38,10 @@ def test_joints_that_move_one_after_the_other_add_their_times_through_the_via_po
 
 
 def test_after_a_turn_the_joint_moves_from_a_stop_not_from_rest():
-    """Jerk limit Jk = 1 only; one joint 0 -> 1 -> 0. It stops where it turns, so each piece runs between a
-    stop and a stop or rest (q'' free at the stop): turn(1) = (12 D / Jk)^(1/3) each, 2 * 12^(1/3) in all; the
-    second piece is not a rest-to-rest move ((32 D / Jk)^(1/3)), which would claim more than the module proves."""
+    """Jerk limit Jk = 1 only; one joint 0 -> 1 -> 0. It stops where it turns, so each piece runs between rest
+    and a stop (q'' free at the stop): ((12 + 6 sqrt 2) D / Jk)^(1/3) each, twice in all; the second piece is
+    not a rest-to-rest move ((32 D / Jk)^(1/3)), which would claim more than the module proves."""
     limits = JointLimits.create(1, jerk=[1.0])
     bound = time_lower_bound(np.array([[0.0], [1.0], [0.0]]), limits)
-    assert bound == pytest.approx(2 * np.cbrt(12.0), rel=1e-12)
+    assert bound == pytest.approx(2 * np.cbrt(12.0 + 6.0 * np.sqrt(2.0)), rel=1e-12)
 

@@ -648,7 +648,7 @@ def test_a_best_timing_outside_the_bounds_is_refused_for_the_bounds_first_and_he
                              limits={"velocity_deg_s": [60, 60], "acceleration_deg_s2": [120, 120],
                                      "jerk_deg_s3": [600, 600], "position_deg": [[-10, 95], [-20, 20]]},
                              trajectory={"family": "hermite7"}, optimizer={"bounds_s": [1.1, 1.1]})
-    with pytest.raises(InfeasibleError, match=r"^no feasible timing found by cuckoo within optimizer.bounds_s = "
+    with pytest.raises(InfeasibleError, match=r"^no feasible timing found by nlp within optimizer.bounds_s = "
                                               r"\[1.1, 1.1\] s: meeting the limits takes segment \d [\d.]+ s, above "
                                               r"h_max = 1.1 s, with joint joint\d's \w+ at its limit [^;]*, and in "
                                               r"that timing joint joint2 position -20.\d+ deg is below its lower limit "

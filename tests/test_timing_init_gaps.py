@@ -250,3 +250,20 @@ def test_the_default_planners_wall_time_covers_the_search_and_both_nlps(monkeypa
     elapsed = time.perf_counter() - began
     assert (result.algorithm == "nlp") == shapes_win
     assert 0.3 < result.wall_time_s <= elapsed
+
+
+@pytest.mark.parametrize("family", ["hermite7", "trigonometric"])
+def test_the_default_planner_does_not_explore_for_families_with_free_via_point_states(family):
+    """hermite7 and trigonometric (via-point states chosen by the NLP) go straight to the NLP from the
+    shapes at any size, as the default planner's docstring measures; Cuckoo Search settings, when given,
+    still run the search first."""
+    via = np.cumsum(np.random.default_rng(2).uniform(-1, 1, (5, 2)), axis=0)
+    limits = JointLimits.create(2, velocity=[1.0, 1.5], acceleration=[2.0, 3.0], jerk=[10.0, 20.0])
+    problem = TimingProblem(via, family, limits)
+    assert problem.segment_count <= 16
+    plain = optimize(problem)
+    assert plain.algorithm == "nlp" and [start.label for start in plain.starts] == ["cruise", "stop-at-turns"]
+    searched = optimize(problem, nests=4, iterations=2, seed=1)
+    assert searched.algorithm == "cuckoo" or searched.stop_reason.startswith("the NLP from Cuckoo Search's nests")
+    assert "Cuckoo Search" not in plain.stop_reason
+    assert searched.total_time == pytest.approx(plain.total_time, rel=1e-6)

@@ -13,18 +13,25 @@ pieces x_i -> e_1 -> ... -> e_r -> x_k, each at least as long as its chord, and
 with each piece's shortest time under its end conditions (D [rad] its length):
 
 * between two stops (q' = 0 at both ends, q'' free there):
-  turn(D) = max(T_VA(D), (12 D / Jk)^(1/3)), T_VA(D) = 2 sqrt(D / A) if D <= V^2 / A,
-  else D / V + V / A (bang-bang acceleration, at most the velocity limit); under
-  the jerk limit alone the fastest such motion has q''' = -Jk throughout, which
-  covers Jk T^3 / 12;
+  turn(D) = max(T_VA(D), T_AJ(D)), T_VA(D) = 2 sqrt(D / A) if D <= V^2 / A,
+  else D / V + V / A (bang-bang acceleration, at most the velocity limit);
+  T_AJ under the acceleration and jerk limits together: the fastest such motion
+  starts at q'' = A, turns it to -A at q''' = -Jk and ends at -A, so in a time
+  T >= 2 A / Jk it covers A t^2 + 2 A^2 t / Jk + 2 A^3 / (3 Jk^2), t = T / 2 - A / Jk,
+  and below that (q'' never reaching A) q''' = -Jk throughout covers Jk T^3 / 12;
+* from where the trajectory starts (q' = q'' = 0) to a stop, or from a stop to
+  where it ends: max(T_VA(D), ((12 + 6 sqrt 2) D / Jk)^(1/3)): under the jerk limit
+  alone q''' = +Jk until T (1 - 1 / sqrt 2), then -Jk, covers Jk T^3 / (12 + 6 sqrt 2);
 * from a passing speed (q' free, at most V) to a stop, or back: half(D) =
   sqrt(2 D / A) if D <= V^2 / (2 A), else D / V + V / (2 A);
+* from where the trajectory starts to a passing speed, or back to where it ends:
+  max(half(D), (6 D / Jk)^(1/3)) (q' <= Jk t^2 / 2 from rest);
 * between two passing speeds: D / V;
-* where the trajectory starts or ends (q' = q'' = 0): as a stop; both ends of one
-  piece at rest: max(T_VA(D), (32 D / Jk)^(1/3)).
+* both ends of one piece at rest: max(T_VA(D), (32 D / Jk)^(1/3)).
 
 Each piece bound holds under fewer constraints than the motion has (each drops
-some), so each is a true lower bound. Then T >= w(i, k) summed along any chain
+some), so each is a true lower bound; the jerk-limited distances are maxima (linear
+programs over piecewise-constant jerk approach them from below). Then T >= w(i, k) summed along any chain
 0 = i_0 < i_1 < ... < i_m = n - 1 of via-points, for every joint's w on each link
 separately (all joints share the times): the longest path through the pairs,
 taken over every pair from the first via-point, every pair to the last, and
@@ -46,8 +53,33 @@ WINDOW = 32
 
 
 def _turn_to_turn(distance: np.ndarray, limits: JointLimits) -> np.ndarray:
-    """(J,) shortest time [s] over ``distance`` (J,) [rad] between two stops, accelerations free."""
-    return np.maximum(_stop_to_stop_va(distance, limits), np.cbrt(12.0 * distance / limits.jerk))
+    """(J,) shortest time [s] over ``distance`` (J,) [rad] between two stops, accelerations free: turn(D)
+    (module docstring)."""
+    return np.maximum(_stop_to_stop_va(distance, limits), _stop_to_stop_aj(distance, limits))
+
+
+def _stop_to_stop_aj(distance: np.ndarray, limits: JointLimits) -> np.ndarray:
+    """T_AJ (module docstring): acceleration and jerk limits only."""
+    a, jerk = limits.acceleration, limits.jerk
+    with np.errstate(invalid="ignore", divide="ignore"):  # absent limits: inf / inf, 0 inf
+        swing = np.nan_to_num(2.0 * a / jerk, nan=0.0)   # turning q'' from A to -A [s]
+        jerk_only = np.cbrt(12.0 * distance / jerk)
+        # A t^2 + (2 A^2 / Jk) t + 2 A^3 / (3 Jk^2) = D: its positive root t
+        linear = 2.0 * a * a / jerk
+        constant = 2.0 * a ** 3 / (3.0 * jerk * jerk) - distance
+        plateau = (np.sqrt(linear * linear - 4.0 * a * constant) - linear) / (2.0 * a)
+        return np.where(jerk_only <= swing, jerk_only, 2.0 * plateau + swing)
+
+
+def _rest_to_stop(distance: np.ndarray, limits: JointLimits) -> np.ndarray:
+    """From where the trajectory starts (q' = q'' = 0) to a stop, or back (module docstring)."""
+    return np.maximum(_stop_to_stop_va(distance, limits),
+                      np.cbrt((12.0 + 6.0 * np.sqrt(2.0)) * distance / limits.jerk))
+
+
+def _rest_to_passing(distance: np.ndarray, limits: JointLimits) -> np.ndarray:
+    """From where the trajectory starts to a passing speed, or back (module docstring)."""
+    return np.maximum(_passing_to_stop(distance, limits), np.cbrt(6.0 * distance / limits.jerk))
 
 
 def _stop_to_stop_va(distance: np.ndarray, limits: JointLimits) -> np.ndarray:
@@ -89,7 +121,8 @@ def _walk(values: np.ndarray, limits: JointLimits, start_at_rest: np.ndarray, en
         reverses = moving & (direction != 0) & (np.sign(step) != direction)
         if reverses.any():  # previous was a strict extreme: a stop there
             piece = np.abs(previous - anchor)
-            to_stop = np.where(stopped | rest, _turn_to_turn(piece, limits), _passing_to_stop(piece, limits))
+            to_stop = np.where(stopped, _turn_to_turn(piece, limits),
+                               np.where(rest, _rest_to_stop(piece, limits), _passing_to_stop(piece, limits)))
             done = np.where(reverses, done + to_stop, done)
             stopped |= reverses
             anchor = np.where(reverses, previous, anchor)
@@ -97,9 +130,9 @@ def _walk(values: np.ndarray, limits: JointLimits, start_at_rest: np.ndarray, en
         previous = np.where(moving, values[:, k], previous)
         piece = np.abs(values[:, k] - anchor)
         at_rest = (np.asarray(end_index) == k)[:, None]
-        last = np.where(stopped, np.where(at_rest, _turn_to_turn(piece, limits), _passing_to_stop(piece, limits)),
+        last = np.where(stopped, np.where(at_rest, _rest_to_stop(piece, limits), _passing_to_stop(piece, limits)),
                         np.where(rest & at_rest, _rest_to_rest(piece, limits),
-                                 np.where(rest | at_rest, _passing_to_stop(piece, limits), piece / limits.velocity)))
+                                 np.where(rest | at_rest, _rest_to_passing(piece, limits), piece / limits.velocity)))
         bounds[:, k] = done + last
     return bounds
 
