@@ -949,10 +949,11 @@ def _certified_quantities(ca, certificates: list[Certificate], blocks: list[Segm
                             for i in range(len(block.coefficients)))
             f[0] = f[0] + ca.mtimes(spread, at_centre * inverse)
             continue
-        picked = [_pick(ca, ca.vec(coefficient), flat) for coefficient in block.coefficients]
-        for power, row in enumerate(block.certified_map(order)):
-            term = sum(float(weight) * picked[i] for i, weight in enumerate(row) if weight != 0)
-            f[power] = f[power] + ca.mtimes(spread, term * inverse)
+        weights = block.certified_map(order)
+        picked = {i: _pick(ca, ca.vec(block.coefficients[i]), flat) for i in np.flatnonzero(weights.any(axis=0))}
+        for power, row in enumerate(weights):
+            terms = [float(row[i]) * column for i, column in picked.items() if row[i] != 0]
+            f[power] = f[power] + ca.mtimes(spread, sum(terms[1:], terms[0]) * inverse)
     return f
 
 
