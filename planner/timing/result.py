@@ -199,22 +199,17 @@ class SearchTracker:
         """Evaluate a batch (repaired from the search box, or as durations) and track the best."""
         return self._track(self.problem.evaluate if repair else self.problem.evaluate_durations, candidates)
 
-    def evaluate_states(self, durations: np.ndarray, states: np.ndarray) -> Evaluation:
-        """Evaluate durations (B, S) with free via-point states (B, n, J, 3), repaired
-        (``TimingProblem.evaluate_states``), and track the best."""
-        return self._track(self.problem.evaluate_states, durations, states)
-
-    def _track(self, evaluate: Callable[..., Evaluation], *batches) -> Evaluation:
-        """``evaluate(*batches)`` (arrays of B rows) in chunks of ``CHUNK_COEFFICIENTS`` at most, and under a
+    def _track(self, evaluate: Callable[[np.ndarray], Evaluation], candidates) -> Evaluation:
+        """``evaluate(candidates)`` (B rows) in chunks of ``CHUNK_COEFFICIENTS`` at most, and under a
         time limit of ``CHUNK_TIME_SHARE`` of the time left (``_chunk_rows``): each chunk's candidates offered
         as the best and counted, the time limit checked after each."""
-        count = len(batches[0]) if np.ndim(batches[0]) == 2 else 0  # (a malformed batch is refused whole)
+        count = len(candidates) if np.ndim(candidates) == 2 else 0  # (a malformed batch is refused whole)
         parts: list[Evaluation] = []
         begin = 0
         while begin < count or not parts:
             rows = count if count == 0 else self._chunk_rows()
             started = time.perf_counter()
-            parts.append(evaluate(*(tuple(batch[begin:begin + rows] for batch in batches) if count else batches)))
+            parts.append(evaluate(candidates[begin:begin + rows] if count else candidates))
             self._candidate_seconds = (time.perf_counter() - started) / max(len(parts[-1].objective), 1)
             begin += rows
             self.offer(parts[-1])
