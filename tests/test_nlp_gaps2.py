@@ -9,7 +9,7 @@ import pytest
 import planner.timing.nlp as nlp
 from conftest import pendulum, record_solves
 from planner import JointLimits, paper
-from planner.timing import TimingProblem
+from planner.timing import TimingProblem, optimize
 from planner.timing.result import SOLVED
 
 VIA = np.deg2rad(paper.VIA_POINTS_DEG)
@@ -590,3 +590,26 @@ def test_starts_solved_one_after_another_are_not_begun_after_the_time_limit(monk
     assert [o.status == nlp.OUT_OF_TIME for o in outcomes] == [False] * len(begun) + [True] * (40 - len(begun))
     assert outcomes[0].status in SOLVED  # (the last one begun may end at IPOPT's own wall-time limit)
     np.testing.assert_array_equal(outcomes[-1].durations, start)
+
+
+@pytest.mark.parametrize("family", ["hermite7", "trigonometric"])
+def test_a_feasible_task_every_start_fails_is_timed_at_rest_at_its_via_points(family):
+    """A hunt's case (one joint, its range from the last via-point to the middle one, a slow velocity limit):
+    every NLP start ended infeasible or outside the range, and the rule's shapes overshot the range by 1e-7
+    deg, so the task was refused. At rest at every via-point each segment stays between its via-points: the
+    timing is feasible (a plan, not a refusal), and dense sampling keeps it within the range and limits."""
+    from conftest import dense_extremes
+
+    via = np.deg2rad([[-19.625055497912495], [7.152343453939288], [-19.630469633254656]])
+    limits = JointLimits.create(1, velocity=np.deg2rad([4.634844087688916]),
+                                acceleration=np.deg2rad([4.969213348621558]), jerk=np.deg2rad([100.61247567248961]),
+                                lower=np.deg2rad([-19.630469633254656]), upper=np.deg2rad([7.152343453939288]))
+    problem = TimingProblem(via, family, limits)
+    result = optimize(problem, "nlp")
+    assert result.feasible
+    trajectory = problem.trajectory(result.durations, result.knot_states)
+    times = np.linspace(0.0, trajectory.knot_times[-1], 20001)
+    positions = trajectory.evaluate(times, 0)
+    assert positions.min() >= limits.lower[0] - 1e-9 and positions.max() <= limits.upper[0] + 1e-9
+    largest, _, _ = dense_extremes(trajectory)
+    assert np.all(largest <= limits.magnitudes * (1 + 1e-6))

@@ -1129,11 +1129,19 @@ def _range_feasible_start(problem: TimingProblem, tracker: SearchTracker) -> np.
     positions stay in range is feasible once repaired. Equal durations and ``RANGE_SHAPES`` random ones
     (a fixed seed) are tried; each goes to ``tracker``, which so holds a feasible result if any is, and
     the NLP solves once more from the best (quintic with ranges binding inside segments: cut rounds
-    that IPOPT did not solve left both starts 1.75e-5 rad outside, where equal durations fit).
+    that IPOPT did not solve left both starts 1.75e-5 rad outside, where equal durations fit). Where the
+    via-point states are free, each shape is tried at rest at every via-point too: every segment then stays
+    between its two via-points, so with the via-points in range it is feasible once repaired (a task every
+    start of hermite7 and trigonometric failed on was refused, though feasible).
     """
     shapes = np.vstack((np.ones(problem.segment_count),
                         np.random.default_rng(0).uniform(0.05, 1.0, (RANGE_SHAPES, problem.segment_count))))
     tried = tracker.evaluate(shapes)  # repaired: scaled until every magnitude holds
+    if problem.family.free_states:  # and at rest at every via-point, where each segment stays between its two
+        # via-points (hermite7's and trigonometric's rule overshot a range by 1e-7 deg where every start failed)
+        at_rest = problem.evaluate_states(shapes, np.zeros((len(shapes), *problem.via_points.shape, 3)))
+        tracker.offer(at_rest)
+        tried = at_rest if not tried.feasible.any() else tried
     if not tried.feasible.any():
         return None
     return tried.durations[int(np.argmin(np.where(tried.feasible, tried.objective, np.inf)))]
