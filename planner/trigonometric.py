@@ -247,6 +247,9 @@ def _half_angle_powers() -> np.ndarray:
     return out
 
 
+_HALF_ANGLE_POWERS = _half_angle_powers()
+
+
 @functools.cache
 def half_angle_map(order: int) -> np.ndarray:
     """(2 ORDER + 1, 8) the map from a segment's coefficients a to those, in powers of u in [0, 1], of the
@@ -270,11 +273,11 @@ def half_angle_map(order: int) -> np.ndarray:
         in_t[:, k] = cos_centre * cos_phi - sin_centre * sin_phi
         if k > 0:
             in_t[:, ORDER + k] = sin_centre * cos_phi + cos_centre * sin_phi
-    return _half_angle_powers() @ in_t @ _real_derivative(order)
+    return _HALF_ANGLE_POWERS @ in_t @ _real_derivative(order)
 
 
 #: (2 ORDER + 1,) the coefficients of (1 + t^2)^ORDER in powers of u (``half_angle_map``).
-HALF_ANGLE_DENOMINATOR = _half_angle_powers() @ np.polynomial.polynomial.polypow([1.0, 0.0, 1.0], ORDER)
+HALF_ANGLE_DENOMINATOR = _HALF_ANGLE_POWERS @ np.polynomial.polynomial.polypow([1.0, 0.0, 1.0], ORDER)
 
 
 #: (8, 8) G with integral_0^1 (h^3 q'''(s h))^2 ds = a^T G a: SPAN^5 ``JERK_GRAM``; the jerk energy of a

@@ -88,13 +88,12 @@ def main() -> None:
     via, limits = np.deg2rad(paper.VIA_POINTS_DEG), paper.paper_limits()
     below = time_lower_bound(via, limits)
     print(f"lower bound (planner.timing.lower_bound): {below:.4f} s")
-    totals = {}
-    for family in ("hybrid", "hermite7", "trigonometric"):
-        result = optimize(TimingProblem(via, family, limits))
-        totals[family] = result.total_time
-        print(f"{family} optimum (default planner): {result.total_time:.4f} s")
-    starts = {"equal durations": np.full(len(via) - 1, 2.5),
-              "hermite7's optimum": optimize(TimingProblem(via, "hermite7", limits), "nlp").durations}
+    results = {family: optimize(TimingProblem(via, family, limits))
+               for family in ("hybrid", "hermite7", "trigonometric")}
+    totals = {family: result.total_time for family, result in results.items()}
+    for family, total in totals.items():
+        print(f"{family} optimum (default planner): {total:.4f} s")
+    starts = {"equal durations": np.full(len(via) - 1, 2.5), "hermite7's optimum": results["hermite7"].durations}
     best = np.inf
     for label, start in starts.items():
         began = time.perf_counter()
