@@ -219,7 +219,7 @@ class SearchTracker:
         def joined(name: str) -> np.ndarray:
             return np.concatenate([getattr(part, name) for part in parts])
         return Evaluation(joined("durations"), joined("objective"), joined("ratios"), joined("position_excess"),
-                          joined("feasible"), None if parts[0].states is None else joined("states"))
+                          joined("feasible"))  # (no states: ``evaluate`` and ``evaluate_durations`` return none)
 
     def _chunk_rows(self) -> int:
         """Candidates of the next chunk (``_track``): within ``CHUNK_COEFFICIENTS``, and under a time limit,
