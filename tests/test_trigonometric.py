@@ -14,11 +14,17 @@ STATES = arrays(float, (2, 4), elements=st.floats(-5.0, 5.0))
 DURATIONS = st.floats(0.05, 20.0)
 
 
+def basis_derivative(coefficients: np.ndarray, theta: np.ndarray, order: int) -> np.ndarray:
+    """d^order q / dtheta^order from the basis as written, term by term: the order-th derivative of cos k theta
+    is k^order cos(k theta + order pi / 2), of sin k theta k^order sin(k theta + order pi / 2)."""
+    shift = order * np.pi / 2
+    return sum(a * k ** order * (np.cos(k * theta + shift) if kind == "cos" else np.sin(k * theta + shift))
+               for a, (k, kind) in zip(coefficients, trig.BASIS))
+
+
 def basis_value(coefficients: np.ndarray, h: float, tau: float) -> float:
-    """q(tau) from the basis as written (``trig.BASIS``), term by term."""
-    theta = 0.75 * np.pi * tau / h
-    return float(sum(a * (np.cos(k * theta) if kind == "cos" else np.sin(k * theta))
-                     for a, (k, kind) in zip(coefficients, trig.BASIS)))
+    """q(tau) from the basis as written (``trig.BASIS``), term by term (``basis_derivative`` of order 0)."""
+    return float(basis_derivative(coefficients, 0.75 * np.pi * tau / h, 0))
 
 
 def test_the_hermite_system_is_well_conditioned_on_zero_to_three_quarters_pi_with_cos_4_theta():
@@ -177,13 +183,6 @@ def test_the_normalised_jerk_gram_gives_the_jerk_energy(a, h):
     expected = trig.segment_jerk_energy(a, h)
     assert a @ trig.NORMALISED_JERK_GRAM @ a / h ** 5 == pytest.approx(expected, rel=1e-10, abs=1e-300)
 
-
-def basis_derivative(coefficients: np.ndarray, theta: np.ndarray, order: int) -> np.ndarray:
-    """d^order q / dtheta^order from the basis as written, term by term: the order-th derivative of cos k theta
-    is k^order cos(k theta + order pi / 2), of sin k theta k^order sin(k theta + order pi / 2)."""
-    shift = order * np.pi / 2
-    return sum(a * k ** order * (np.cos(k * theta + shift) if kind == "cos" else np.sin(k * theta + shift))
-               for a, (k, kind) in zip(coefficients, trig.BASIS))
 
 
 @given(arrays(float, 8, elements=st.floats(-3.0, 3.0)), st.sampled_from([0, 1, 2, 3]))
