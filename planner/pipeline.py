@@ -65,7 +65,7 @@ from .limits import (
 from .outputs import absolute_path, output_folder
 from .progress import TerminalProgress
 from .read_only import read_only
-from .recording import prepare_recording, write_recording
+from .recording import optimizer_name, prepare_recording, write_recording
 from .report import plot_profiles, prepare_figure
 from .robot import Robot, load_robot
 from .splines import MAX_SAMPLES, PiecewisePolynomial, get_family
@@ -769,11 +769,11 @@ def _check_configuration(q: np.ndarray | None, key: str, robot: Robot) -> None:
 
 
 def _outside_bounds(problem: TimingProblem, result: OptimizationResult, worst: Violation | None,
-                    stopped: str = "") -> InfeasibleError:
+                    stopped: str = "", by: str = "") -> InfeasibleError:
     """The error for a best timing outside ``optimizer.bounds_s`` (some duration is outside them): it
     names the segment furthest outside, the bound, and the limit that binds there (its largest ratio),
     and ``worst``, a limit the timing still breaks (a position range), if any; ``stopped`` says that the
-    time limit ended the search, where it did."""
+    time limit ended the search, where it did; ``by`` names the algorithm (the result's where empty)."""
     assert problem.bounds is not None
     low, high = problem.bounds
     h = result.durations
@@ -783,7 +783,7 @@ def _outside_bounds(problem: TimingProblem, result: OptimizationResult, worst: V
     limited, limit = LIMITED[d], float(problem.limits.magnitudes[d, j])
     also = "" if worst is None else f", and in that timing {worst}"
     duration, shown_bound = numbers_apart(float(h[k]), bound)
-    return InfeasibleError(f"no feasible timing found by {result.algorithm}{stopped} within optimizer.bounds_s = "
+    return InfeasibleError(f"no feasible timing found by {by or result.algorithm}{stopped} within optimizer.bounds_s = "
                            f"[{low:g}, {high:g}] s: meeting the limits takes segment {k} {duration} s, {side} = "
                            f"{shown_bound} s, "
                            f"with joint {problem.limits.names[j]}'s {limited.name} at its limit "
@@ -962,14 +962,15 @@ def plan(task, *, progress: TerminalProgress | None = None) -> PlanResult:
                       f"({result.wall_time_s:.2f} s)")
         if not result.feasible or found:
             worst = max(found, key=lambda violation: violation.ratio, default=None)
+            by = optimizer_name(settings["algorithm"], result.algorithm)  # "default (cuckoo)": what ran, what was kept
             stopped = (f" before the time limit of {settings['time_limit']:g} s (optimizer.time_limit_s) stopped "
                        f"it (raise or remove that limit)" if result.out_of_time else "")
             if problem.bounds is not None and bounds_exceeded(result.durations, problem.bounds):
-                raise _outside_bounds(problem, result, worst, stopped)  # whatever else it breaks, it breaks the bounds
+                raise _outside_bounds(problem, result, worst, stopped, by)  # whatever else it breaks: the bounds
             reasons = ([f"largest constraint ratio {result.max_ratio:.12g} (limit 1)"]
                        if ratio_exceeded(result.max_ratio) or worst is None else []) + \
                 ([str(worst)] if worst else [])  # a position alone leaves the ratio at 1: no word of it then
-            raise InfeasibleError(f"no feasible timing found by {result.algorithm}{stopped}; in its best timing, "
+            raise InfeasibleError(f"no feasible timing found by {by}{stopped}; in its best timing, "
                                   f"{'; '.join(reasons)}"
                                   + _on_bound_hint(problem, found), violation=worst)
         return trajectory, (problem, result)

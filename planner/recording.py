@@ -221,12 +221,13 @@ def plan_summary(result) -> str:
                for d, quantity in enumerate(QUANTITIES) for j in [int(np.argmax(ratios[d]))]]
     columns += _robot_limit_columns(getattr(result, "robot_limits", None), names)
     torque_note = " Torque: each joint's over its limit (+-1)." if any(c[0] == "torque" for c in columns) else ""
+    optimizer = optimizer_name(result.task.optimizer["algorithm"], result.optimization.algorithm)
     return "\n".join([
         f"### {_markdown_text(result.task.name)}: {'feasible' if feasible else 'NOT feasible (a limit is exceeded)'}",
         "",
         f"**robot** {_markdown_text(robot.name) if robot is not None else 'none (joint space)'} · "
         f"**family** {_markdown_text(result.task.family)} · "
-        f"**optimizer** {_markdown_text(optimizer_name(result))}"
+        f"**optimizer** {_markdown_text(optimizer)}"
         f" · **total time** {seconds_text(result.trajectory.total_time)} s",
         "",
         "| largest ratio | " + " | ".join(quantity for quantity, _, _ in columns) + " |",
@@ -255,10 +256,9 @@ def _robot_limit_columns(outcome, names: list[str]) -> list[tuple[str, float, st
     return columns
 
 
-def optimizer_name(result) -> str:
+def optimizer_name(requested: str, kept: str) -> str:
     """The algorithm the task asked for, and the one whose result was kept where they differ
     (``default`` runs several): ``default (cuckoo)``."""
-    requested, kept = result.task.optimizer["algorithm"], result.optimization.algorithm
     return kept if requested == kept else f"{requested} ({kept})"
 
 
@@ -324,7 +324,8 @@ def _log_plan(rec, result, rate_hz: float) -> None:
     plot_index = _time_index(plot_times)
     rec.send_recording_name(result.task.name)
     rec.send_property("plan", rr.AnyValues(
-        task=result.task.name, family=result.task.family, optimizer=optimizer_name(result),
+        task=result.task.name, family=result.task.family, optimizer=optimizer_name(
+            result.task.optimizer["algorithm"], result.optimization.algorithm),
         total_time_s=trajectory.total_time, feasible=bool(result.feasible),
         joints=", ".join(names)))
     definition = trajectory_definition(trajectory, result.limits, names, getattr(result, "via_points", None))

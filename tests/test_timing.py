@@ -438,7 +438,8 @@ def test_the_default_planner_falls_back_to_the_shapes_when_its_nests_end_infeasi
     if not explored.feasible:  # the case this guards (it was so when written)
         assert result.stop_reason.startswith("the NLP from Cuckoo Search's nests ended infeasible")
     elif explored.objective > result.objective:  # so it is with IPOPT's alpha_for_y safer-min-dual-infeas
-        assert result.stop_reason.startswith("the NLP from Cuckoo Search's nests did not converge (start nest")
+        assert result.stop_reason.startswith("the NLP from Cuckoo Search's nests fell short of full convergence "
+                                             "(start nest")
     figures = kinematic_figures(problem.trajectory(result.durations))
     assert figures.violations(limits) == []
 
@@ -808,8 +809,8 @@ def test_where_no_shape_converges_the_nlp_tries_equal_durations_and_says_so(monk
     assert [s.status for s in base.optimization.starts][2] == "Solve_Succeeded"
     assert base.trajectory.total_time == pytest.approx(other.trajectory.total_time, rel=1e-9)
     assert [s.label for s in base.optimization.starts] == ["cruise", "stop-at-turns", "uniform"]
-    assert base.optimization.stop_reason == ("NLP from 3 shapes; 2 of 3 starts did not converge (start cruise: "
-                                             "IPOPT Maximum_Iterations_Exceeded)")
+    assert base.optimization.stop_reason == ("NLP from 3 shapes; 2 of 3 starts fell short of IPOPT's full convergence "
+                                             "(start cruise: IPOPT Maximum_Iterations_Exceeded)")
 
 
 @pytest.mark.parametrize("family", ["cubic", "hybrid", "quintic"])
