@@ -769,11 +769,11 @@ def _check_configuration(q: np.ndarray | None, key: str, robot: Robot) -> None:
 
 
 def _outside_bounds(problem: TimingProblem, result: OptimizationResult, worst: Violation | None,
-                    stopped: str = "", by: str = "") -> InfeasibleError:
+                    stopped: str, by: str) -> InfeasibleError:
     """The error for a best timing outside ``optimizer.bounds_s`` (some duration is outside them): it
     names the segment furthest outside, the bound, and the limit that binds there (its largest ratio),
     and ``worst``, a limit the timing still breaks (a position range), if any; ``stopped`` says that the
-    time limit ended the search, where it did; ``by`` names the algorithm (the result's where empty)."""
+    time limit ended the search, where it did (else ''); ``by`` names the algorithm (``optimizer_name``)."""
     assert problem.bounds is not None
     low, high = problem.bounds
     h = result.durations
@@ -783,7 +783,7 @@ def _outside_bounds(problem: TimingProblem, result: OptimizationResult, worst: V
     limited, limit = LIMITED[d], float(problem.limits.magnitudes[d, j])
     also = "" if worst is None else f", and in that timing {worst}"
     duration, shown_bound = numbers_apart(float(h[k]), bound)
-    return InfeasibleError(f"no feasible timing found by {by or result.algorithm}{stopped} within optimizer.bounds_s = "
+    return InfeasibleError(f"no feasible timing found by {by}{stopped} within optimizer.bounds_s = "
                            f"[{low:g}, {high:g}] s: meeting the limits takes segment {k} {duration} s, {side} = "
                            f"{shown_bound} s, "
                            f"with joint {problem.limits.names[j]}'s {limited.name} at its limit "
